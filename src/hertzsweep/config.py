@@ -1,0 +1,443 @@
+"""Scene and rig configuration: TOML parsed once into frozen dataclasses.
+
+A *rig* file holds only ``[rig]``. A *scene* file names a rig (``rig = "path.toml"``,
+relative to the scene) or holds an inline ``[rig]`` table, plus ``[damping]``,
+``[excitation]``, ``[sweep]``, ``[solver]`` and ``[lockin]``. Every key but the
+rig's has a default (the SPEC's). Unknown keys, wrong types and values out of range
+raise :class:`~hertzsweep.errors.ConfigError` naming the file, the key and the reason.
+
+Overrides ``table.key=value`` (TOML value syntax; a bare word is taken as a string)
+are applied to the raw tables before validation, so they are checked like the file.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import ConfigError
+
+GRAVITY = 9.81  # [m s^-2] default static load is mass * GRAVITY, as in the paper (F_s = mg)
+STEEL_DENSITY = 7810.0  # [kg m^-3] 100C6 bearing steel; default ball mass from its volume
+
+GEOMETRIES = ("double-sphere-plane", "sphere-plane")
+DAMPING_LAWS = ("viscous", "contact")
+DIRECTIONS = ("up", "down")
+STEADY_STATE_METHODS = ("settle", "shooting")
+SOLVER_METHODS = ("central-difference",)
+
+
+# --------------------------------------------------------------------------- dataclasses
+@dataclass(frozen=True)
+class RigConfig:
+    """The test rig, SI units.
+
+    Attributes
+    ----------
+    geometry : ``"double-sphere-plane"`` (the paper's rig) or ``"sphere-plane"``.
+    ball_radius : [m] R.
+    youngs_modulus : [Pa] E, ball and planes alike.
+    poisson_ratio : [1] nu, in (-1, 0.5).
+    mass : [kg] the moving mass m.
+    static_load : [N] F_s (default m g).
+    ball_mass : [kg] for the estimate of the ball's own mode (default from radius and
+        ``ball_density``).
+    ball_density : [kg m^-3] used only for the default ball mass.
+    """
+
+    ball_radius: float
+    youngs_modulus: float
+    poisson_ratio: float
+    mass: float
+    geometry: str = "double-sphere-plane"
+    static_load: float | None = None
+    ball_mass: float | None = None
+    ball_density: float = STEEL_DENSITY
+
+    def __post_init__(self) -> None:
+        if self.static_load is None:
+            object.__setattr__(self, "static_load", self.mass * GRAVITY)
+        if self.ball_mass is None:
+            volume = 4.0 / 3.0 * math.pi * self.ball_radius**3
+            object.__setattr__(self, "ball_mass", self.ball_density * volume)
+
+
+@dataclass(frozen=True)
+class DampingConfig:
+    """Damping law, eq. (8) (``viscous``) or eq. (11) (``contact``, exponent n)."""
+
+    ratio: float = 0.0045
+    law: str = "viscous"
+    exponent: float = 1.5
+
+
+@dataclass(frozen=True)
+class ExcitationConfig:
+    """Input levels sigma = F/F_s (a dimension of every result)."""
+
+    sigma: tuple[float, ...] = (0.006, 0.01)
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """Stepped-sine frequency grid and dwell.
+
+    ``settle_periods`` is a whole number, or ``None`` for ``"auto"`` (settle until the
+    readings of consecutive blocks of ``measure_periods`` agree within ``tolerance``,
+    at most ``max_settle_periods``).
+    """
+
+    start: float = 0.90
+    stop: float = 1.05
+    step: float = 0.0025
+    directions: tuple[str, ...] = ("up", "down")
+    settle_periods: int | None = 300
+    measure_periods: int = 20
+    tolerance: float = 1e-4
+    max_settle_periods: int = 5000
+    jump_threshold: float = 0.3
+    steady_state: str = "settle"
+
+    @property
+    def frequency_ratios(self) -> np.ndarray:
+        """The grid start, start + step, ... up to stop (inclusive within 1e-9 step)."""
+        count = int(math.floor((self.stop - self.start) / self.step + 1e-9)) + 1
+        return np.round(self.start + self.step * np.arange(count), 12)
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """Time integration: the paper's central-difference scheme."""
+
+    method: str = "central-difference"
+    steps_per_period: int = 256
+
+
+@dataclass(frozen=True)
+class LockinConfig:
+    """Harmonics of N/F_s read by the lock-in amplifier."""
+
+    harmonics: tuple[int, ...] = (1, 2)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One experiment: a rig and everything the sweep needs."""
+
+    rig: RigConfig
+    damping: DampingConfig = DampingConfig()
+    excitation: ExcitationConfig = ExcitationConfig()
+    sweep: SweepConfig = SweepConfig()
+    solver: SolverConfig = SolverConfig()
+    lockin: LockinConfig = LockinConfig()
+    source: str = "<scene>"
+
+    def attributes(self) -> dict[str, Any]:
+        """Every resolved value as flat ``table_key`` attributes (netCDF-friendly)."""
+        out: dict[str, Any] = {}
+        for table in ("rig", "damping", "excitation", "sweep", "solver", "lockin"):
+            for key, value in asdict(getattr(self, table)).items():
+                name = key if table == "rig" else f"{table}_{key}"
+                if value is None:
+                    value = "auto"
+                if isinstance(value, tuple):
+                    value = list(value)
+                    if value and isinstance(value[0], str):
+                        value = ",".join(value)
+                out[name] = value
+        out["rig_geometry"] = out.pop("geometry")
+        return out
+
+    def with_values(self, **tables: Any) -> Scene:
+        """A copy with whole tables replaced, e.g. ``scene.with_values(solver=...)``."""
+        from dataclasses import replace
+
+        return replace(self, **tables)
+
+
+# --------------------------------------------------------------------------- validation
+def _number(source: str, key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(source, key, f"expected a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ConfigError(source, key, f"expected a finite number, got {value!r}")
+    return float(value)
+
+
+def _integer(source: str, key: str, value: Any) -> int:
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(source, key, f"expected a whole number, got {value!r}")
+    return value
+
+
+def _string(source: str, key: str, value: Any, allowed: Iterable[str]) -> str:
+    allowed = tuple(allowed)
+    if not isinstance(value, str) or value not in allowed:
+        choices = ", ".join(repr(a) for a in allowed)
+        raise ConfigError(source, key, f"expected one of {choices}, got {value!r}")
+    return value
+
+
+def _positive(source: str, key: str, value: Any) -> float:
+    x = _number(source, key, value)
+    if x <= 0:
+        raise ConfigError(source, key, f"must be positive, got {value!r}")
+    return x
+
+
+def _non_negative(source: str, key: str, value: Any) -> float:
+    x = _number(source, key, value)
+    if x < 0:
+        raise ConfigError(source, key, f"must be >= 0, got {value!r}")
+    return x
+
+
+def _positive_int(source: str, key: str, value: Any) -> int:
+    x = _integer(source, key, value)
+    if x < 1:
+        raise ConfigError(source, key, f"must be at least 1, got {value!r}")
+    return x
+
+
+def _poisson(source: str, key: str, value: Any) -> float:
+    x = _number(source, key, value)
+    if not -1.0 < x < 0.5:
+        raise ConfigError(source, key, f"must lie in (-1, 0.5), got {value!r}")
+    return x
+
+
+def _sigma_list(source: str, key: str, value: Any) -> tuple[float, ...]:
+    items = value if isinstance(value, list) else [value]
+    if not items:
+        raise ConfigError(source, key, "expected a number or a non-empty list of numbers")
+    out = tuple(_positive(source, key, v) for v in items)
+    if len(set(out)) != len(out):
+        raise ConfigError(source, key, f"values must be distinct, got {list(out)}")
+    return out
+
+
+def _directions(source: str, key: str, value: Any) -> tuple[str, ...]:
+    items = value if isinstance(value, list) else [value]
+    out = tuple(_string(source, key, v, DIRECTIONS) for v in items)
+    if not out or len(set(out)) != len(out):
+        raise ConfigError(source, key, f"expected 'up', 'down' or both once, got {value!r}")
+    return out
+
+
+def _settle(source: str, key: str, value: Any) -> int | None:
+    if value == "auto":
+        return None
+    if isinstance(value, str):
+        raise ConfigError(source, key, f"expected a whole number or 'auto', got {value!r}")
+    x = _integer(source, key, value)
+    if x < 0:
+        raise ConfigError(source, key, f"must be >= 0 or 'auto', got {value!r}")
+    return x
+
+
+def _harmonics(source: str, key: str, value: Any) -> tuple[int, ...]:
+    items = value if isinstance(value, list) else [value]
+    out = tuple(_positive_int(source, key, v) for v in items)
+    if not out or len(set(out)) != len(out):
+        raise ConfigError(source, key, f"expected distinct whole numbers >= 1, got {value!r}")
+    return tuple(sorted(out))
+
+
+def _fraction(source: str, key: str, value: Any) -> float:
+    x = _number(source, key, value)
+    if not 0.0 < x < 1.0:
+        raise ConfigError(source, key, f"must lie in (0, 1), got {value!r}")
+    return x
+
+
+Check = Callable[[str, str, Any], Any]
+
+SCHEMA: dict[str, dict[str, Check]] = {
+    "rig": {
+        "geometry": lambda s, k, v: _string(s, k, v, GEOMETRIES),
+        "ball_radius": _positive,
+        "youngs_modulus": _positive,
+        "poisson_ratio": _poisson,
+        "mass": _positive,
+        "static_load": _positive,
+        "ball_mass": _positive,
+        "ball_density": _positive,
+    },
+    "damping": {
+        "ratio": _non_negative,
+        "law": lambda s, k, v: _string(s, k, v, DAMPING_LAWS),
+        "exponent": _non_negative,
+    },
+    "excitation": {"sigma": _sigma_list},
+    "sweep": {
+        "start": _positive,
+        "stop": _positive,
+        "step": _positive,
+        "directions": _directions,
+        "settle_periods": _settle,
+        "measure_periods": _positive_int,
+        "tolerance": _positive,
+        "max_settle_periods": _positive_int,
+        "jump_threshold": _fraction,
+        "steady_state": lambda s, k, v: _string(s, k, v, STEADY_STATE_METHODS),
+    },
+    "solver": {
+        "method": lambda s, k, v: _string(s, k, v, SOLVER_METHODS),
+        "steps_per_period": _positive_int,
+    },
+    "lockin": {"harmonics": _harmonics},
+}
+REQUIRED_RIG_KEYS = ("ball_radius", "youngs_modulus", "poisson_ratio", "mass")
+CLASSES = {
+    "rig": RigConfig,
+    "damping": DampingConfig,
+    "excitation": ExcitationConfig,
+    "sweep": SweepConfig,
+    "solver": SolverConfig,
+    "lockin": LockinConfig,
+}
+
+
+def _table(source: str, raw: Mapping[str, Any], name: str) -> dict[str, Any]:
+    table = raw.get(name, {})
+    if not isinstance(table, Mapping):
+        raise ConfigError(source, name, f"expected a table, got {table!r}")
+    values: dict[str, Any] = {}
+    for key, value in table.items():
+        dotted = f"{name}.{key}"
+        if key not in SCHEMA[name]:
+            known = ", ".join(SCHEMA[name])
+            raise ConfigError(source, dotted, f"unknown key (known: {known})")
+        values[key] = SCHEMA[name][key](source, dotted, value)
+    return values
+
+
+def rig_from_table(source: str, raw: Mapping[str, Any]) -> RigConfig:
+    """Validate a ``[rig]`` table (already merged with overrides)."""
+    values = _table(source, {"rig": raw}, "rig")
+    for key in REQUIRED_RIG_KEYS:
+        if key not in values:
+            raise ConfigError(source, f"rig.{key}", "missing (the rig's keys have no default)")
+    return RigConfig(**values)
+
+
+def scene_from_dict(raw: Mapping[str, Any], source: str = "<scene>") -> Scene:
+    """Validate a raw scene mapping whose ``rig`` is already an inline table.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key, wrong type, value out of range, or an empty/reversed grid.
+    """
+    for key in raw:
+        if key not in CLASSES:
+            known = ", ".join(CLASSES)
+            raise ConfigError(source, key, f"unknown table (known: {known})")
+    if "rig" not in raw:
+        raise ConfigError(source, "rig", "missing: give rig = 'file.toml' or a [rig] table")
+    rig = rig_from_table(source, raw["rig"])
+    tables = {name: CLASSES[name](**_table(source, raw, name)) for name in CLASSES if name != "rig"}
+    sweep: SweepConfig = tables["sweep"]
+    if sweep.stop < sweep.start:
+        raise ConfigError(
+            source, "sweep.stop", f"grid is reversed: stop {sweep.stop} < start {sweep.start}"
+        )
+    if sweep.step > (sweep.stop - sweep.start) and sweep.stop > sweep.start:
+        raise ConfigError(
+            source,
+            "sweep.step",
+            f"step {sweep.step} is larger than the range {sweep.stop - sweep.start:g}",
+        )
+    return Scene(rig=rig, source=source, **tables)
+
+
+# --------------------------------------------------------------------------- files
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file; a missing or malformed file is a ConfigError."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise ConfigError(str(path), "", "no such file") from None
+    except OSError as exc:
+        raise ConfigError(str(path), "", f"cannot read ({exc.strerror})") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(path), "", f"not valid TOML ({exc})") from None
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """``"damping.ratio=0.01"`` -> ``("damping.ratio", 0.01)``; TOML value syntax.
+
+    A value that is not valid TOML is taken as a bare string (``law=contact``).
+    """
+    key, sep, value = text.partition("=")
+    key = key.strip()
+    if not sep or "." not in key or not value.strip():
+        raise ConfigError("--set", key or text, "expected table.key=value")
+    try:
+        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value.strip()
+    return key, parsed
+
+
+def apply_override(raw: dict[str, Any], key: str, value: Any, source: str = "--set") -> None:
+    """Set dotted ``table.key`` in a raw scene mapping (in place)."""
+    table, _, name = key.partition(".")
+    if table not in CLASSES or not name or "." in name:
+        raise ConfigError(source, key, "expected table.key with a known table")
+    sub = raw.setdefault(table, {})
+    if not isinstance(sub, dict):
+        raise ConfigError(source, key, f"{table} is not a table here")
+    sub[name] = value
+
+
+def load_raw_scene(path: str | Path) -> dict[str, Any]:
+    """Read a scene file and inline its rig (``rig = "file"`` is relative to the scene)."""
+    path = Path(path)
+    raw = read_toml(path)
+    rig = raw.get("rig")
+    if isinstance(rig, str):
+        rig_path = (path.parent / rig) if not Path(rig).is_absolute() else Path(rig)
+        if not rig_path.exists():
+            raise ConfigError(str(path), "rig", f"rig file {str(rig_path)!r} does not exist")
+        rig_raw = read_toml(rig_path)
+        extra = set(rig_raw) - {"rig"}
+        if extra or "rig" not in rig_raw:
+            raise ConfigError(
+                str(rig_path), ", ".join(sorted(extra)) or "rig", "a rig file holds only [rig]"
+            )
+        raw["rig"] = dict(rig_raw["rig"])
+    return raw
+
+
+def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> Scene:
+    """Read, override and validate a scene file (or a rig file, which gets defaults)."""
+    raw = load_raw_scene(path)
+    for text in overrides:
+        key, value = parse_override(text)
+        apply_override(raw, key, value)
+    return scene_from_dict(raw, source=str(path))
+
+
+def load_rig(path: str | Path) -> RigConfig:
+    """The rig of a rig file or of a scene file."""
+    raw = load_raw_scene(path)
+    if "rig" not in raw or not isinstance(raw["rig"], Mapping):
+        raise ConfigError(str(path), "rig", "missing: give rig = 'file.toml' or a [rig] table")
+    return rig_from_table(str(path), raw["rig"])
+
+
+def field_names(table: str) -> tuple[str, ...]:
+    """The keys of one table, in declaration order (for docs and --help)."""
+    return tuple(f.name for f in fields(CLASSES[table]))
