@@ -44,6 +44,10 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "periodic": ("steady state repeats every excitation period", "1"),
     "jump_frequency_ratio": ("frequency ratio where the H1 response jumped", "1"),
     "jump_frequency": ("frequency where the H1 response jumped", "Hz"),
+    # --- trace attributes (insert above this line)
+    # --- branch attributes (insert above this line)
+    # --- study attributes (insert above this line)
+    # --- accuracy attributes (insert above this line)
 }
 
 
@@ -141,6 +145,20 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
     return ds
 
 
+# --------------------------------------------------------------------------- trace
+# (trace dataset builders go here)
+
+# --------------------------------------------------------------------------- branch
+# (branch dataset builders go here)
+
+# --------------------------------------------------------------------------- study
+# (study dataset builders go here)
+
+# --------------------------------------------------------------------------- accuracy
+# (accuracy dataset builders go here)
+
+
+# --------------------------------------------------------------------------- files
 def write_atomic(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """Write netCDF4 to a temporary name in the same folder, then rename: the output is
     complete or absent."""
