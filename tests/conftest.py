@@ -33,3 +33,16 @@ def make_scene(**tables):
 @pytest.fixture
 def default_scene():
     return load_scene(CONFIGS / "default.toml")
+
+
+def run_cli(argv, capsys):
+    """Run ``hertzsweep ARGV`` in-process; returns (exit status, stdout, stderr)."""
+    from hertzsweep.cli import main
+
+    try:
+        main([str(a) for a in argv])
+        code = 0
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 1
+    out, err = capsys.readouterr()
+    return code, out, err

@@ -143,7 +143,8 @@ class Scene:
         out: dict[str, Any] = {}
         for table in ("rig", "damping", "excitation", "sweep", "solver", "lockin"):
             for key, value in asdict(getattr(self, table)).items():
-                name = key if table == "rig" else f"{table}_{key}"
+                bare = table == "rig" or (table, key) == ("solver", "steps_per_period")
+                name = key if bare else f"{table}_{key}"  # SPEC: damping_ratio, steps_per_period
                 if value is None:
                     value = "auto"
                 if isinstance(value, tuple):

@@ -1,0 +1,58 @@
+"""The sweep command end to end: run it, reopen the netCDF, check names, units, numbers."""
+
+import numpy as np
+import pytest
+
+from hertzsweep.dataset import open_dataset
+
+from .conftest import CONFIGS, run_cli
+
+
+@pytest.fixture(scope="module")
+def sweep_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli") / "sweep.nc"
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "hertzsweep", "sweep", str(CONFIGS / "default.toml"), "-o",
+           str(out), "--set", "sweep.start=0.5", "--set", "sweep.stop=0.6",
+           "--set", "sweep.step=0.05", "--set", "excitation.sigma=[1e-4, 0.01]", "--quiet"]  # fmt: skip
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    assert "wrote" in done.stdout and "peak H1" in done.stdout
+    return out
+
+
+def test_dataset_names_units_numbers(sweep_file):
+    ds = open_dataset(sweep_file)
+    assert ds.attrs["Conventions"] == "CF-1.11"
+    assert "hertzsweep sweep" in ds.attrs["history"]
+    assert ds.attrs["damping_ratio"] == 0.0045 and ds.attrs["steps_per_period"] == 256
+    assert ds.attrs["natural_frequency"] == pytest.approx(230.78, abs=0.01)
+    assert list(ds.direction.values) == ["up", "down"]
+    assert list(ds.harmonic.values) == [1, 2]
+    np.testing.assert_allclose(ds.frequency_ratio, [0.5, 0.55, 0.6])
+    np.testing.assert_allclose(ds.frequency, ds.frequency_ratio * ds.attrs["natural_frequency"])
+    for name, units in [("amplitude", "1"), ("phase", "degree"), ("force_max", "1"),
+                        ("flight_time", "s"), ("frequency", "Hz"), ("contact_loss_fraction", "1"),
+                        ("jump_frequency_ratio", "1")]:  # fmt: skip
+        assert ds[name].attrs["units"] == units and ds[name].attrs["long_name"]
+    assert ds.amplitude.dims == ("direction", "sigma", "frequency_ratio", "harmonic")
+    # far below resonance the response is quasi-linear: |T| = 1/(1 - w^2) within the
+    # Hertz nonlinearity (sigma = 1e-4) and damping (2 zeta w = 0.5 %)
+    h1 = ds.amplitude.sel(direction="up", sigma=1e-4, harmonic=1).values / 1e-4
+    np.testing.assert_allclose(h1, 1 / (1 - ds.frequency_ratio.values**2), rtol=1e-3)
+    assert np.all(ds.phase.sel(harmonic=1, sigma=1e-4) < 1.0)  # nearly in phase
+    assert np.all(ds.settled == 1) and np.all(ds.periodic == 1)
+    assert np.all(np.isnan(ds.jump_frequency_ratio))
+    assert np.all(ds.flight_time == 0)
+
+
+def test_output_is_atomic(tmp_path, capsys):
+    out = tmp_path / "x.nc"
+    code, _, err = run_cli(
+        ["sweep", CONFIGS / "default.toml", "-o", out, "--set", "solver.steps_per_period=3"],
+        capsys,
+    )
+    assert code == 2 and "stability limit" in err
+    assert list(tmp_path.iterdir()) == []  # neither the file nor a temporary is left
