@@ -54,6 +54,16 @@ def _next(q_prev, q, excess_force, rm1, c, h2, half_h, law, inv_viscous):
     return numerator / (1.0 + c * half_h)
 
 
+@njit(cache=True, inline="always")
+def _next_viscous(q_prev, q, excess_force, d, sd, h2, damp_prev, inv_viscous):
+    """The viscous update rearranged so that one FMA follows the square root (the loop is
+    latency-bound): ``q[n+1] = P - Q sqrt(d)`` with ``P``, ``Q`` computed alongside it.
+    ``damp_prev = 1 - c h / 2``; ``sd = sqrt(max(d, 0))``, so ``d sd = R(q)`` also out
+    of contact."""
+    p = (h2 * (excess_force + 1.0) + 2.0 * q - q_prev * damp_prev) * inv_viscous
+    return p - (h2 * inv_viscous * d) * sd
+
+
 @njit(cache=True)
 def advance(q_prev, q, h, sigma, sin_table, periods, zeta, law, exponent):
     """Integrate whole periods without measuring. Returns ``(q_prev, q, status)``."""
@@ -62,12 +72,23 @@ def advance(q_prev, q, h, sigma, sin_table, periods, zeta, law, exponent):
     half_h = 0.5 * h
     inv_viscous = 1.0 / (1.0 + 2.0 * zeta * half_h)
     limit = 4.0 / h2  # h^2 omega^2 < 4, omega^2 = sqrt(d)
+    damp_prev = 1.0 - 2.0 * zeta * half_h
+    viscous = law == VISCOUS
     for _ in range(periods):
         for j in range(n):
-            d, sd, rm1, c = contact_terms(q, zeta, law, exponent)
+            if viscous:
+                d = 1.0 + q * (2.0 / 3.0)
+                sd = math.sqrt(d) if d > 0.0 else 0.0
+                q_next = _next_viscous(
+                    q_prev, q, sigma * sin_table[j], d, sd, h2, damp_prev, inv_viscous
+                )
+            else:
+                d, sd, rm1, c = contact_terms(q, zeta, law, exponent)
+                q_next = _next(
+                    q_prev, q, sigma * sin_table[j], rm1, c, h2, half_h, law, inv_viscous
+                )
             if sd >= limit:
                 return q_prev, q, UNSTABLE
-            q_next = _next(q_prev, q, sigma * sin_table[j], rm1, c, h2, half_h, law, inv_viscous)
             q_prev = q
             q = q_next
         if not (math.isfinite(q) and math.isfinite(q_prev)):
@@ -119,6 +140,8 @@ def measure(
     h2 = h * h
     half_h = 0.5 * h
     inv_viscous = 1.0 / (1.0 + 2.0 * zeta * half_h)
+    damp_prev = 1.0 - 2.0 * zeta * half_h
+    viscous = law == VISCOUS
     inv_2h = 1.0 / (2.0 * h)
     limit = 4.0 / h2
     index = np.zeros(n_harm, dtype=np.int64)
@@ -133,6 +156,7 @@ def measure(
     q_prev_last = q_prev
     q_last = q
     sample = 0
+    status = OK
     for p in range(periods):
         if p == periods - 1:
             q_prev_last = q_prev
@@ -140,23 +164,22 @@ def measure(
         for i in range(n_harm):
             index[i] = 0
         for j in range(n):
-            d, sd, rm1, c = contact_terms(q, zeta, law, exponent)
-            if sd >= limit:
-                return (
-                    q_prev,
-                    q,
-                    UNSTABLE,
-                    total,
-                    force_max,
-                    force_min,
-                    loss_steps,
-                    longest,
-                    max(lead, 0),
-                    run,
-                    q_prev_last,
-                    q_last,
+            if viscous:
+                d = 1.0 + q * (2.0 / 3.0)
+                sd = math.sqrt(d) if d > 0.0 else 0.0
+                rm1 = d * sd - 1.0
+                c = 2.0 * zeta
+                q_next = _next_viscous(
+                    q_prev, q, sigma * sin_table[j], d, sd, h2, damp_prev, inv_viscous
                 )
-            q_next = _next(q_prev, q, sigma * sin_table[j], rm1, c, h2, half_h, law, inv_viscous)
+            else:
+                d, sd, rm1, c = contact_terms(q, zeta, law, exponent)
+                q_next = _next(
+                    q_prev, q, sigma * sin_table[j], rm1, c, h2, half_h, law, inv_viscous
+                )
+            if sd >= limit:
+                status = UNSTABLE
+                break
             velocity = (q_next - q_prev) * inv_2h
             excess = rm1 + c * velocity  # N/F_s - 1
             total += excess
@@ -192,37 +215,14 @@ def measure(
                 sample += 1
             q_prev = q
             q = q_next
-        if not (math.isfinite(q) and math.isfinite(q_prev)):
-            return (
-                q_prev,
-                q,
-                NON_FINITE,
-                total,
-                force_max,
-                force_min,
-                loss_steps,
-                longest,
-                max(lead, 0),
-                run,
-                q_prev_last,
-                q_last,
-            )
+        if status == OK and not (math.isfinite(q) and math.isfinite(q_prev)):
+            status = NON_FINITE
+        if status != OK:
+            break
     if lead < 0:  # never in contact: one flight over the whole record
         lead = run
-    return (
-        q_prev,
-        q,
-        OK,
-        total,
-        force_max + 1.0,
-        force_min + 1.0,
-        loss_steps,
-        longest,
-        lead,
-        run,
-        q_prev_last,
-        q_last,
-    )
+    return (q_prev, q, status, total, force_max + 1.0, force_min + 1.0,
+            loss_steps, longest, lead, run, q_prev_last, q_last)  # fmt: skip
 
 
 @njit(cache=True)
