@@ -14,9 +14,24 @@ def sweep_file(tmp_path_factory):
     import subprocess
     import sys
 
-    cmd = [sys.executable, "-m", "hertzsweep", "sweep", str(CONFIGS / "default.toml"), "-o",
-           str(out), "--set", "sweep.start=0.5", "--set", "sweep.stop=0.6",
-           "--set", "sweep.step=0.05", "--set", "excitation.sigma=[1e-4, 0.01]", "--quiet"]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "hertzsweep",
+        "sweep",
+        str(CONFIGS / "default.toml"),
+        "-o",
+        str(out),
+        "--set",
+        "sweep.start=0.5",
+        "--set",
+        "sweep.stop=0.6",
+        "--set",
+        "sweep.step=0.05",
+        "--set",
+        "excitation.sigma=[1e-4, 0.01]",
+        "--quiet",
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stderr
     assert "wrote" in done.stdout and "peak H1" in done.stdout
@@ -33,9 +48,15 @@ def test_dataset_names_units_numbers(sweep_file):
     assert list(ds.harmonic.values) == [1, 2]
     np.testing.assert_allclose(ds.frequency_ratio, [0.5, 0.55, 0.6])
     np.testing.assert_allclose(ds.frequency, ds.frequency_ratio * ds.attrs["natural_frequency"])
-    for name, units in [("amplitude", "1"), ("phase", "degree"), ("force_max", "1"),
-                        ("flight_time", "s"), ("frequency", "Hz"), ("contact_loss_fraction", "1"),
-                        ("jump_frequency_ratio", "1")]:  # fmt: skip
+    for name, units in [
+        ("amplitude", "1"),
+        ("phase", "degree"),
+        ("force_max", "1"),
+        ("flight_time", "s"),
+        ("frequency", "Hz"),
+        ("contact_loss_fraction", "1"),
+        ("jump_frequency_ratio", "1"),
+    ]:
         assert ds[name].attrs["units"] == units and ds[name].attrs["long_name"]
     assert ds.amplitude.dims == ("direction", "sigma", "frequency_ratio", "harmonic")
     # far below resonance the response is quasi-linear: |T| = 1/(1 - w^2) within the
@@ -56,3 +77,45 @@ def test_output_is_atomic(tmp_path, capsys):
     )
     assert code == 2 and "stability limit" in err
     assert list(tmp_path.iterdir()) == []  # neither the file nor a temporary is left
+
+
+@pytest.mark.slow
+def test_sigterm_keeps_finished_sweeps(tmp_path):
+    # A long sweep (8 sigma x 2 directions x 1501 dwells, ~2e9 steps) stopped by SIGTERM:
+    # no output file, the finished (direction, sigma) sweeps in OUT.partial.nc, exit 143.
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "long.nc"
+    cmd = [
+        sys.executable,
+        "-m",
+        "hertzsweep",
+        "sweep",
+        str(CONFIGS / "default.toml"),
+        "-o",
+        str(out),
+        "-q",
+        "--set",
+        "excitation.sigma=[0.001, 0.002, 0.003, 0.004, 0.005, 0.006, 0.007, 0.008]",
+        "--set",
+        "sweep.step=0.0001",
+    ]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    partial = tmp_path / "long.partial.nc"
+    # one sweep (1501 dwells of 320 periods, 1.2e8 steps) takes 2 s on a quiet machine
+    time.sleep(6.0)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signal.SIGTERM
+    assert "interrupted" in err.splitlines()[-1]
+    assert not out.exists()
+    ds = open_dataset(partial)
+    finished = ds.finished.values.astype(bool)
+    assert ds.attrs["complete"] == 0 and 0 < finished.sum() < finished.size
+    assert np.all(np.isfinite(ds.amplitude.values[finished]))
+    # the sweep cut short keeps the dwells it finished; those not reached are NaN
+    assert np.all(np.any(np.isnan(ds.amplitude.values[~finished]), axis=(1, 2)))
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

@@ -19,7 +19,8 @@ def test_synthetic_harmonics_exact(samples_per_period, periods):
     amplitude = np.array([0.8, 0.17, 0.02, 1e-3])
     phase = np.array([12.0, 200.0, 359.5, 90.0])
     signal = 1.3 + sum(
-        a * np.sin(k * theta - np.radians(p)) for k, a, p in zip(harmonics, amplitude, phase)
+        a * np.sin(k * theta - np.radians(p))
+        for k, a, p in zip(harmonics, amplitude, phase, strict=True)
     )
     mean, a_out, p_out = demodulate(signal, harmonics, samples_per_period)
     assert mean == pytest.approx(1.3, abs=1e-12)

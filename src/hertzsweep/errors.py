@@ -42,3 +42,12 @@ class IntegrationError(HertzsweepError):
 
 class ConvergenceError(HertzsweepError):
     """A Newton iteration or a continuation could not converge."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A run was stopped by SIGINT or SIGTERM; ``partial`` holds what it finished."""
+
+    def __init__(self, partial: object = None, signal_number: int = 2) -> None:
+        super().__init__("interrupted")
+        self.partial = partial
+        self.signal_number = signal_number

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .config import Scene
-from .errors import HertzsweepError
+from .errors import HertzsweepError, Interrupted
 from .model import check_stability
 from .oscillator import Oscillator, Reading, State
 
@@ -43,6 +43,7 @@ class SweepResult:
     settled: np.ndarray
     periodic: np.ndarray
     jump_frequency_ratio: np.ndarray
+    finished: np.ndarray  # (direction, sigma): that sweep ran to its end
     steps: int = 0
     extra: dict = field(default_factory=dict)
 
@@ -72,6 +73,7 @@ class SweepResult:
             settled=np.zeros(shape, dtype=bool),
             periodic=np.zeros(shape, dtype=bool),
             jump_frequency_ratio=np.full(shape[:2], np.nan),
+            finished=np.zeros(shape[:2], dtype=bool),
         )
 
     def store(self, d: int, s: int, i: int, reading: Reading, settled: bool) -> None:
@@ -148,6 +150,9 @@ def run_sweep(scene: Scene, progress: Progress | None = None) -> SweepResult:
 
     Raises
     ------
+    Interrupted
+        On SIGINT (or SIGTERM where the CLI maps it), with the result so far as
+        ``partial``: finished (direction, sigma) sweeps are complete, the rest NaN.
     StabilityError
         The time step is beyond the stability limit (before running, or when the
         compression reached during the run passes it).
@@ -161,20 +166,25 @@ def run_sweep(scene: Scene, progress: Progress | None = None) -> SweepResult:
         from .shooting import shooting_dwell  # issue: shooting-accelerated sweeps
 
         steady_state = shooting_dwell
-    for d, direction in enumerate(result.directions):
-        for s, sigma in enumerate(result.sigma):
+    try:
+        for d, direction in enumerate(result.directions):
+            for s, sigma in enumerate(result.sigma):
 
-            def store(i: int, reading: Reading, settled: bool, d=d, s=s) -> None:
-                result.store(d, s, i, reading, settled)
+                def store(i: int, reading: Reading, settled: bool, d=d, s=s) -> None:
+                    result.store(d, s, i, reading, settled)
 
-            oscillator = run_direction(scene, sigma, direction, progress, store, steady_state)
-            result.steps += oscillator.steps
-            result.jump_frequency_ratio[d, s] = find_jump(
-                result.amplitude[d, s, :, 0],
-                result.frequency_ratio,
-                direction,
-                scene.sweep.jump_threshold,
-            )
+                oscillator = run_direction(scene, sigma, direction, progress, store, steady_state)
+                result.steps += oscillator.steps
+                result.jump_frequency_ratio[d, s] = find_jump(
+                    result.amplitude[d, s, :, 0],
+                    result.frequency_ratio,
+                    direction,
+                    scene.sweep.jump_threshold,
+                )
+                result.finished[d, s] = True
+    except KeyboardInterrupt as exc:
+        signal_number = getattr(exc, "signal_number", 2)
+        raise Interrupted(result, signal_number) from None
     return result
 
 

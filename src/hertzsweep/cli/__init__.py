@@ -6,13 +6,14 @@ Each command lives in a submodule that registers itself on :data:`main`'s group.
 
 from __future__ import annotations
 
+import signal
 import sys
 from collections.abc import Sequence
 
 import click
 
 from .. import __version__
-from ..errors import HertzsweepError
+from ..errors import HertzsweepError, Interrupted
 
 EXIT_USAGE = 2  # bad file, key, value or setting (and click's usage errors)
 EXIT_INTERRUPTED = 130  # SIGINT, as a shell reports it
@@ -35,20 +36,30 @@ def main(argv: Sequence[str] | None = None) -> None:
     from . import commands  # noqa: F401  (registers the core commands)
 
     _register_optional()
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         cli.main(args=list(argv) if argv is not None else None, standalone_mode=False)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
-    except click.exceptions.Abort:
-        fail("interrupted", EXIT_INTERRUPTED)
+    except click.exceptions.Abort as exc:  # click wraps KeyboardInterrupt in Abort
+        cause = exc.__cause__
+        fail("interrupted", 128 + cause.signal_number if isinstance(cause, Interrupted)
+             else EXIT_INTERRUPTED)  # fmt: skip
     except click.ClickException as exc:
         fail(exc.format_message().replace("\n", " "), exc.exit_code)
     except HertzsweepError as exc:
         fail(str(exc))
     except (FileNotFoundError, PermissionError, IsADirectoryError) as exc:
         fail(f"{exc.filename}: {exc.strerror}")
+    except Interrupted as exc:
+        fail("interrupted", 128 + exc.signal_number)
     except KeyboardInterrupt:
         fail("interrupted", EXIT_INTERRUPTED)
+
+
+def _terminate(signal_number: int, frame: object) -> None:
+    """SIGTERM ends a run like SIGINT: what is finished is kept."""
+    raise Interrupted(None, signal_number)
 
 
 def _register_optional() -> None:

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import click
 import numpy as np
 
 from ..config import load_rig
 from ..dataset import sweep_dataset, write_atomic
+from ..errors import Interrupted
 from ..model import check_stability, stability_limit
 from ..progress import progress_bar
 from ..rig import UNITS, derive
@@ -83,12 +85,31 @@ def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
 def sweep_command(scene_file: str, output: str, overrides: tuple[str, ...], quiet: bool) -> None:
     """Stepped-sine sweeps, up and/or down, for every sigma; prints a short table."""
     scene = read_scene(scene_file, overrides)
-    with progress_bar(dwell_count(scene), "sweep", not quiet) as progress:
-        result = run_sweep(scene, progress)
+    try:
+        with progress_bar(dwell_count(scene), "sweep", not quiet) as progress:
+            result = run_sweep(scene, progress)
+    except Interrupted as exc:
+        keep_partial(exc, scene, output)
+        raise
     ds = sweep_dataset(result, scene)
     write_atomic(ds, output)
     click.echo(summary_table(ds))
     click.echo(f"wrote {output}")
+
+
+def keep_partial(exc: Interrupted, scene, output: str) -> None:
+    """Write the finished sweeps of an interrupted run to ``OUT.partial.nc`` (atomically;
+    dwells not reached are NaN, attribute ``complete = 0``); the output itself stays absent."""
+    result = exc.partial
+    if result is None or not result.finished.any():
+        return
+    ds = sweep_dataset(result, scene)
+    ds["finished"] = (("direction", "sigma"), result.finished.astype(np.int8),
+                      {"long_name": "that sweep ran to its end", "units": "1"})  # fmt: skip
+    ds.attrs["complete"] = 0
+    partial = Path(output).with_suffix(".partial.nc")
+    write_atomic(ds, partial)
+    click.echo(f"kept {int(result.finished.sum())} finished sweep(s) in {partial}", err=True)
 
 
 def summary_table(ds) -> str:
