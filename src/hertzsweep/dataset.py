@@ -44,9 +44,60 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "periodic": ("steady state repeats every excitation period", "1"),
     "jump_frequency_ratio": ("frequency ratio where the H1 response jumped", "1"),
     "jump_frequency": ("frequency where the H1 response jumped", "Hz"),
+    # trace
+    "tau": ("dimensionless time tau = Omega t from the first recorded sample", "1"),
+    "time": ("time from the first recorded sample", "s"),
+    "displacement": ("dimensionless displacement q = 3/2 (z - z_s)/z_s", "1"),
+    "velocity": ("dimensionless velocity dq/dtau", "1"),
+    "normal_force": ("transmitted normal force N/F_s", "1"),
+    "in_contact": ("in contact (1) or in flight (0)", "1"),
+    "harmonic_order": ("frequency of the spectral line over the excitation frequency", "1"),
+    "spectrum_frequency": ("frequency of the spectral line", "Hz"),
+    "spectrum": ("amplitude spectrum of N/F_s (peak; the mean at order 0)", "1"),
+    "flight_start": ("start of the flight (loss of contact) in tau", "1"),
+    "flight_end": ("end of the flight (loss of contact) in tau", "1"),
+    "flight_start_time": ("start of the flight (loss of contact)", "s"),
+    "flight_duration": ("duration of the flight (loss of contact)", "s"),
+    "flight_complete": ("flight lies wholly inside the record", "1"),
+    "flight_count": ("number of flights in the record", "1"),
     # --- trace attributes (insert above this line)
+    # branch
+    "point": ("index of the point along the branch, in arclength order", "1"),
+    "multiplier": ("index of the Floquet multiplier, largest modulus first", "1"),
+    "bifurcation": ("index of the located bifurcation along the branch", "1"),
+    "multiplier_real": ("real part of the Floquet multiplier of the periodic orbit", "1"),
+    "multiplier_imag": ("imaginary part of the Floquet multiplier of the periodic orbit", "1"),
+    "stable": ("periodic orbit asymptotically stable (both multipliers inside the unit "
+               "circle); -1 pads", "1"),
+    "arclength": ("pseudo-arclength along the branch in the scaled coordinates "
+                  "(w, q/Q, q'/(w Q)), Q = sigma/(2 zeta)", "1"),
+    "branch_complete": ("branch continued across the whole frequency span", "1"),
+    "bifurcation_frequency_ratio": ("frequency ratio of the bifurcation", "1"),
+    "bifurcation_frequency": ("frequency of the bifurcation", "Hz"),
+    "bifurcation_kind": ("kind of bifurcation: fold, period-doubling or neimark-sacker "
+                         "(empty pads)", "1"),
+    "bifurcation_amplitude": ("amplitude of harmonic 1 of N/F_s at the bifurcation (peak)",
+                              "1"),
+    "bifurcation_point": ("index of the branch point at the bifurcation (-1 pads)", "1"),
     # --- branch attributes (insert above this line)
     # --- study attributes (insert above this line)
+    # accuracy
+    "setting_label": ("solver settings of the rung", "1"),
+    "steps_per_period": ("integration steps per excitation period", "1"),
+    "settle": ("settling: periods, or auto:tolerance", "1"),
+    "steady_state": ("steady-state method: settle or shooting", "1"),
+    "error_h1": ("max abs error of the H1 amplitude over the sweep, relative to the "
+                 "reference's largest H1", "1"),
+    "error_h2": ("max abs error of the H2 amplitude over the sweep, relative to the "
+                 "reference's largest H2", "1"),
+    "error_force": ("max abs error of force_max and force_min over the sweep", "1"),
+    "error_jump": ("max abs error of the jump frequency ratio (inf: a jump missed or added)",
+                   "1"),
+    "cost_steps": ("integration steps of the sweep", "1"),
+    "wall_time": ("wall-clock time of the sweep", "s"),
+    "pareto": ("on the Pareto front of cost_steps and error_h1", "1"),
+    "order_h1": ("observed order of accuracy of H1 from N, 2N, 4N (steps rungs)", "1"),
+    "settled_fraction": ("share of the dwells that reached the steady state", "1"),
     # --- accuracy attributes (insert above this line)
 }
 
@@ -147,15 +198,252 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
 
 # --------------------------------------------------------------------------- trace
 # (trace dataset builders go here)
+def trace_dataset(result: Any, scene: Scene, history: str | None = None) -> xr.Dataset:
+    """The trace dataset of a :class:`hertzsweep.trace.TraceResult`.
+
+    Dimensions ``sigma``, ``sample`` (coordinates ``tau`` and ``time`` [s]),
+    ``harmonic``, ``harmonic_order`` (with ``spectrum_frequency`` [Hz]) and ``flight``;
+    the record's columns are views, not copies. Flight variables are NaN padded
+    (``flight_complete`` with -1). Times in seconds are ``tau / Omega`` (eq. 6).
+    """
+    constants = derive(scene.rig)
+    omega = constants.natural_circular_frequency
+    w = float(result.frequency_ratio)
+    tau = result.tau
+    record = result.record
+    trace = ("sigma", "sample")
+    flight = ("sigma", "flight")
+    data = {
+        "displacement": (trace, record[:, :, 0]),
+        "velocity": (trace, record[:, :, 1]),
+        "normal_force": (trace, record[:, :, 2]),
+        "in_contact": (trace, record[:, :, 3].astype(np.int8)),
+        "spectrum": (("sigma", "harmonic_order"), result.spectrum),
+        "amplitude": (("sigma", "harmonic"), result.amplitude),
+        "phase": (("sigma", "harmonic"), result.phase),
+        "mean_force": ("sigma", result.mean_force),
+        "force_max": ("sigma", result.force_max),
+        "force_min": ("sigma", result.force_min),
+        "contact_loss_fraction": ("sigma", result.contact_loss_fraction),
+        "flight_time": ("sigma", result.flight_tau / omega),
+        "flight_count": ("sigma", result.flight_count.astype(np.int32)),
+        "flight_start": (flight, result.flight_start),
+        "flight_end": (flight, result.flight_end),
+        "flight_start_time": (flight, result.flight_start / omega),
+        "flight_duration": (flight, (result.flight_end - result.flight_start) / omega),
+        "flight_complete": (flight, result.flight_complete),
+        "settled": ("sigma", result.settled.astype(np.int8)),
+        "periodic": ("sigma", result.periodic.astype(np.int8)),
+        "frequency_ratio": ((), w),
+        "frequency": ((), w * constants.natural_frequency),
+    }
+    coords = {
+        "sigma": ("sigma", result.sigma, attrs("sigma")),
+        "tau": ("sample", tau, attrs("tau")),
+        "time": ("sample", tau / omega, attrs("time")),
+        "harmonic": ("harmonic", result.harmonics, attrs("harmonic")),
+        "harmonic_order": ("harmonic_order", result.harmonic_order, attrs("harmonic_order")),
+        "spectrum_frequency": (
+            "harmonic_order",
+            result.harmonic_order * w * constants.natural_frequency,
+            attrs("spectrum_frequency"),
+        ),
+    }
+    ds = xr.Dataset(
+        {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()},
+        coords=coords,
+        attrs=global_attributes(
+            scene, "Time history and spectrum of a preloaded Hertzian contact at one frequency",
+            "trace", history,
+        ),
+    )  # fmt: skip
+    for flag in ("settled", "periodic"):
+        ds[flag].attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")
+    ds["in_contact"].attrs.update(
+        flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="flight contact"
+    )
+    ds["flight_complete"].attrs.update(
+        flag_values=np.array([-1, 0, 1], dtype=np.int8),
+        flag_meanings="no_flight cut_by_record complete",
+    )
+    approach = np.asarray(result.approach)
+    ds.attrs.update(
+        frequency_ratio=w,
+        frequency=w * constants.natural_frequency,
+        branch=result.branch,
+        periods=int(result.periods),
+        samples_per_period=int(result.samples_per_period),
+        record_stride=int(result.stride),
+        approach_from=float(approach[0]) if approach.size else w,
+        approach_dwells=int(approach.size),
+        spectrum_backend=result.spectrum_backend,
+        integration_steps=int(result.steps),
+    )
+    return ds
+
 
 # --------------------------------------------------------------------------- branch
 # (branch dataset builders go here)
+def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Dataset:
+    """The branch dataset of a :class:`~hertzsweep.continuation.BranchResult`.
+
+    Dimensions ``sigma``, ``point`` (points in arclength order, NaN padded; ``stable``
+    padded with -1), ``harmonic``, ``multiplier`` (0, 1: largest modulus first) and
+    ``bifurcation`` (located bifurcations in arclength order, padded with NaN, ``""``
+    and -1; at least one slot).
+    """
+    constants = derive(scene.rig)
+    branches = result.branches
+    n_sigma = len(branches)
+    n_points = max(branch.size for branch in branches)
+    n_found = max(1, max(len(branch.bifurcations) for branch in branches))
+    n_harmonics = result.harmonics.size
+    per_point = {
+        name: np.full((n_sigma, n_points), np.nan)
+        for name in ("frequency_ratio", "mean_force", "force_max", "force_min",
+                     "contact_loss_fraction", "flight_tau", "arclength")
+    }  # fmt: skip
+    amplitude = np.full((n_sigma, n_points, n_harmonics), np.nan)
+    phase = np.full((n_sigma, n_points, n_harmonics), np.nan)
+    multipliers = np.full((n_sigma, n_points, 2), np.nan + 0j)
+    stable = np.full((n_sigma, n_points), -1, dtype=np.int8)
+    found_w = np.full((n_sigma, n_found), np.nan)
+    found_amplitude = np.full((n_sigma, n_found), np.nan)
+    found_kind = np.full((n_sigma, n_found), "", dtype=object)
+    found_point = np.full((n_sigma, n_found), -1, dtype=np.int32)
+    complete = np.zeros(n_sigma, dtype=np.int8)
+    for s, branch in enumerate(branches):
+        size = branch.size
+        for name, values in per_point.items():
+            values[s, :size] = getattr(branch, name)
+        amplitude[s, :size] = branch.amplitude
+        phase[s, :size] = branch.phase
+        multipliers[s, :size] = branch.multipliers
+        stable[s, :size] = branch.stable
+        complete[s] = branch.complete
+        for i, found in enumerate(branch.bifurcations):
+            found_w[s, i] = found.frequency_ratio
+            found_amplitude[s, i] = found.amplitude
+            found_kind[s, i] = found.kind
+            found_point[s, i] = found.point
+    f0 = constants.natural_frequency
+    at_point = ("sigma", "point")
+    data = {
+        "frequency_ratio": (at_point, per_point["frequency_ratio"]),
+        "frequency": (at_point, per_point["frequency_ratio"] * f0),
+        "amplitude": (at_point + ("harmonic",), amplitude),
+        "phase": (at_point + ("harmonic",), phase),
+        "mean_force": (at_point, per_point["mean_force"]),
+        "force_max": (at_point, per_point["force_max"]),
+        "force_min": (at_point, per_point["force_min"]),
+        "contact_loss_fraction": (at_point, per_point["contact_loss_fraction"]),
+        "flight_time": (at_point, per_point["flight_tau"] / constants.natural_circular_frequency),
+        "multiplier_real": (at_point + ("multiplier",), multipliers.real),
+        "multiplier_imag": (at_point + ("multiplier",), multipliers.imag),
+        "stable": (at_point, stable),
+        "arclength": (at_point, per_point["arclength"]),
+        "branch_complete": (("sigma",), complete),
+        "bifurcation_frequency_ratio": (("sigma", "bifurcation"), found_w),
+        "bifurcation_frequency": (("sigma", "bifurcation"), found_w * f0),
+        "bifurcation_kind": (("sigma", "bifurcation"), found_kind),
+        "bifurcation_amplitude": (("sigma", "bifurcation"), found_amplitude),
+        "bifurcation_point": (("sigma", "bifurcation"), found_point),
+    }
+    coords = {
+        "sigma": ("sigma", result.sigma, attrs("sigma")),
+        "point": ("point", np.arange(n_points, dtype=np.int32), attrs("point")),
+        "harmonic": ("harmonic", result.harmonics, attrs("harmonic")),
+        "multiplier": ("multiplier", np.arange(2, dtype=np.int32), attrs("multiplier")),
+        "bifurcation": ("bifurcation", np.arange(n_found, dtype=np.int32), attrs("bifurcation")),
+    }
+    ds = xr.Dataset(
+        {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()},
+        coords=coords,
+        attrs=global_attributes(scene, "Periodic orbits of a preloaded Hertzian contact by "
+                                "shooting and pseudo-arclength continuation", "branch",
+                                history),
+    )  # fmt: skip
+    ds["stable"].attrs.update(
+        flag_values=np.array([-1, 0, 1], dtype=np.int8), flag_meanings="no_point unstable stable"
+    )
+    ds["branch_complete"].attrs.update(
+        flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes"
+    )
+    ds.attrs["integration_steps"] = int(result.steps)
+    ds.attrs["branch_start_frequency_ratio"] = float(result.start_frequency_ratio)
+    ds.attrs["branch_end_frequency_ratio"] = float(result.end_frequency_ratio)
+    return ds
+
+
 
 # --------------------------------------------------------------------------- study
 # (study dataset builders go here)
 
 # --------------------------------------------------------------------------- accuracy
 # (accuracy dataset builders go here)
+def accuracy_dataset(report: Any, scene: Scene, history: str | None = None) -> xr.Dataset:
+    """The accuracy dataset of a :class:`hertzsweep.accuracy.AccuracyReport`.
+
+    Dimension ``setting`` (the rungs that ran, reference last) with coordinates
+    ``setting_label``, ``steps_per_period``, ``settle`` ("300", "auto:1e-4") and
+    ``steady_state``; the errors against the reference, the cost, the Pareto flag and the
+    observed order ``order_h1`` per rung. Attributes: ``observed_order``, ``reference_label``, the
+    reference's Richardson error estimates ``reference_error_h1`` (``_h2``, ``_force``),
+    ``settle_check_h1``, ``scene_setting``, ``target`` and ``recommended`` (label; empty
+    when none meets the target or no target was given), ``notes``.
+    """
+    rungs = report.rungs
+    settings = [r.setting for r in rungs]
+
+    def strings(values: list[str]) -> np.ndarray:
+        return np.array(values, dtype=object)
+
+    coords = {
+        "setting_label": ("setting", strings([s.label for s in settings]),
+                          attrs("setting_label")),
+        "steps_per_period": ("setting", np.array([s.steps_per_period for s in settings]),
+                             attrs("steps_per_period")),
+        "settle": ("setting", strings([s.settle for s in settings]), attrs("settle")),
+        "steady_state": ("setting", strings([s.steady_state for s in settings]),
+                         attrs("steady_state")),
+    }  # fmt: skip
+    errors = report.errors
+    data = {
+        "error_h1": np.array([e.h1 for e in errors]),
+        "error_h2": np.array([e.h2 for e in errors]),
+        "error_force": np.array([e.force for e in errors]),
+        "error_jump": np.array([e.jump for e in errors]),
+        "cost_steps": np.array([r.cost_steps for r in rungs], dtype=np.int64),
+        "wall_time": np.array([r.wall_time for r in rungs]),
+        "pareto": np.asarray(report.pareto, dtype=np.int8),
+        "order_h1": np.asarray(report.orders, dtype=float),
+        "settled_fraction": np.array([float(np.mean(r.result.settled)) for r in rungs]),
+    }
+    ds = xr.Dataset(
+        {name: ("setting", values, attrs(name)) for name, values in data.items()},
+        coords=coords,
+        attrs=global_attributes(scene, "Error against cost of the solver settings",
+                                "accuracy", history),
+    )  # fmt: skip
+    ds["pareto"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")
+    ref_error = report.reference_error
+    recommended = report.recommended
+    extra = {
+        "observed_order": float(report.observed_order),
+        "reference_label": rungs[-1].setting.label,
+        "scene_setting": report.scene_setting.label,
+        "recommended": "" if recommended is None else rungs[recommended].setting.label,
+        "target": float("nan") if report.target is None else float(report.target),
+        "error_metric": "error_h1: max abs H1 error over the sweep / the reference's max H1",
+        "notes": "; ".join(report.notes),
+    }
+    if ref_error is not None:
+        extra.update(reference_error_h1=ref_error.h1, reference_error_h2=ref_error.h2,
+                     reference_error_force=ref_error.force)  # fmt: skip
+    if report.settle_check is not None:
+        extra["settle_check_h1"] = report.settle_check.h1
+        extra["settle_check_label"] = report.settle_check_label
+    return merge_attributes(ds, extra)
 
 
 # --------------------------------------------------------------------------- files

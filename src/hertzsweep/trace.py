@@ -1,0 +1,422 @@
+"""Time histories at one frequency: reach it on a branch, settle, record, analyse.
+
+The rig's view of one operating point (the paper's Figures 7, 8, 12, 16, 17): the
+steady normal force N/F_s over a few periods, its spectrum, and its flights (loss of
+contact, ``q < -3/2``, eq. 9).
+
+A stepped-sine sweep lands on the upper branch of a softening resonance when it comes
+down from above and on the lower one when it comes up from below, so the frequency is
+reached the same way: for ``branch = "upper"`` the scene's grid is walked down from
+``sweep.stop`` through every grid frequency above W (one :meth:`Oscillator.dwell`
+each, as the down sweep would), for ``"lower"`` up from ``sweep.start`` through every
+grid frequency below W; where no grid frequency lies on that side, the walk starts from
+rest at W. At W the oscillator dwells as the sweep does (``settle_periods`` or
+``"auto"``), then P whole periods are recorded by the same compiled loop that reads the
+lock-in, every ``stride``-th step (``stride = steps_per_period / samples_per_period``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from . import integrators
+from .config import Scene
+from .errors import ConfigError, HertzsweepError
+from .model import check_stability
+from .oscillator import Oscillator, State
+from .spectrum import AmplitudeSpectrum, harmonic_orders
+
+Progress = Callable[[int], None]
+
+BRANCHES = ("upper", "lower")
+DEFAULT_PERIODS = 8
+GRID_MATCH = 1e-9  # grid frequencies within this of W count as W (the grid is rounded
+# to 1e-12; a user's --frequency 0.975 must not dwell at a grid point 0.975 + 1e-13 first)
+CROSSING_BISECTIONS = 48  # halvings of one sample interval: 2^-48, below rounding of tau
+
+# columns of the record written by integrators.measure
+DISPLACEMENT, VELOCITY, NORMAL_FORCE, IN_CONTACT = 0, 1, 2, 3
+RECORD_COLUMNS = 4
+LOSS_OF_CONTACT = -1.5  # q at which d = 1 + 2q/3 vanishes (eq. 9)
+
+
+@dataclass
+class TraceResult:
+    """Records and their analysis for every sigma at one frequency ratio.
+
+    Times are in tau from the first recorded sample (excitation phase 0, so the input
+    is ``sigma sin(w tau)``); the dataset layer adds seconds with the rig's Omega.
+
+    Attributes
+    ----------
+    record : float[S, M, 4]
+        ``q, q', N/F_s, in contact`` (1.0/0.0) every ``sample_step`` in tau.
+    spectrum : float[S, M/2 + 1]
+        Single-sided amplitude spectrum of N/F_s on :attr:`harmonic_order`.
+    amplitude, phase : float[S, K]
+        The lock-in's harmonics over the recorded periods (every step).
+    force_max, force_min, contact_loss_fraction, mean_force : float[S]
+        Over every integration step of the recorded periods.
+    flight_tau : float[S]
+        Longest flight (see :func:`longest_flight`).
+    flight_start, flight_end : float[S, F]
+        Every flight's bounds in tau, NaN padded.
+    flight_complete : int8[S, F]
+        1 for a flight inside the record, 0 for one cut by its start or end, -1 pad.
+    settled : bool[S]
+        The dwell at W met the scene's settling criterion.
+    periodic : bool[S]
+        The recorded state repeats after one period.
+    approach : float[A]
+        The grid frequencies dwelt at before W, in order (empty: from rest at W).
+    """
+
+    frequency_ratio: float
+    branch: str
+    periods: int
+    samples_per_period: int
+    stride: int
+    sample_step: float
+    sigma: np.ndarray
+    harmonics: np.ndarray
+    record: np.ndarray
+    spectrum: np.ndarray
+    harmonic_order: np.ndarray
+    amplitude: np.ndarray
+    phase: np.ndarray
+    mean_force: np.ndarray
+    force_max: np.ndarray
+    force_min: np.ndarray
+    contact_loss_fraction: np.ndarray
+    flight_tau: np.ndarray
+    flight_start: np.ndarray
+    flight_end: np.ndarray
+    flight_complete: np.ndarray
+    settled: np.ndarray
+    periodic: np.ndarray
+    approach: np.ndarray
+    spectrum_backend: str
+    steps: int = 0
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def tau(self) -> np.ndarray:
+        """tau of each sample, from 0."""
+        return np.arange(self.record.shape[1]) * self.sample_step
+
+    @property
+    def flight_count(self) -> np.ndarray:
+        return np.sum(self.flight_complete >= 0, axis=-1)
+
+
+# --------------------------------------------------------------------------- checks
+def resolve_samples_per_period(scene: Scene, samples_per_period: int | None) -> int:
+    """The samples per period to record: default every step; otherwise a divisor of
+    ``solver.steps_per_period`` (a ConfigError naming ``--samples-per-period``)."""
+    steps = scene.solver.steps_per_period
+    if samples_per_period is None:
+        return steps
+    if (
+        isinstance(samples_per_period, bool)
+        or not isinstance(samples_per_period, int | np.integer)
+        or samples_per_period < 1
+        or steps % samples_per_period
+    ):
+        raise ConfigError(
+            "trace",
+            "--samples-per-period",
+            f"must be a divisor of solver.steps_per_period = {steps} "
+            f"(e.g. {steps}, {steps // 2}), got {samples_per_period!r}",
+        )
+    return int(samples_per_period)
+
+
+def check_trace(frequency_ratio: float, periods: int, branch: str) -> None:
+    """Refuse a non-positive frequency, fewer than one period or an unknown branch."""
+    w = float(frequency_ratio)
+    if not np.isfinite(w) or w <= 0.0:
+        raise ConfigError(
+            "trace", "--frequency", f"must be a positive frequency ratio w = f/f0, got {w:g}"
+        )
+    if isinstance(periods, bool) or not isinstance(periods, int | np.integer) or periods < 1:
+        raise ConfigError("trace", "--periods", f"must be a whole number >= 1, got {periods!r}")
+    if branch not in BRANCHES:
+        raise ConfigError("trace", "--branch", f"expected 'upper' or 'lower', got {branch!r}")
+
+
+# --------------------------------------------------------------------------- reaching W
+def approach_path(frequency_ratios: np.ndarray, frequency_ratio: float, branch: str) -> np.ndarray:
+    """The grid frequencies a sweep visits before W on the given branch, in order:
+    down from the top through those above W (``"upper"``), or up from the bottom
+    through those below W (``"lower"``). Empty where W lies beyond the starting end."""
+    grid = np.sort(np.asarray(frequency_ratios, dtype=float))
+    if branch == "upper":
+        return grid[grid > frequency_ratio + GRID_MATCH][::-1]
+    return grid[grid < frequency_ratio - GRID_MATCH]
+
+
+def steady_state_method(scene: Scene) -> Callable | None:
+    """The dwell the scene's sweep uses (None: :meth:`Oscillator.dwell`)."""
+    if scene.sweep.steady_state == "shooting":
+        from .shooting import shooting_dwell
+
+        return shooting_dwell
+    return None
+
+
+def reach(
+    oscillator: Oscillator,
+    frequency_ratio: float,
+    path: np.ndarray,
+    steady_state: Callable | None = None,
+    progress: Progress | None = None,
+) -> tuple[State, bool]:
+    """Walk ``path`` dwell by dwell, then dwell at W. Returns the state at W (at a
+    period boundary, excitation phase 0) and whether the dwell at W settled."""
+    dwell = oscillator.dwell if steady_state is None else (
+        lambda state, w: steady_state(oscillator, state, w)
+    )  # fmt: skip
+    state = oscillator.rest(path[0] if path.size else frequency_ratio)
+    for w in path:
+        state, _, _ = dwell(state, float(w))
+        if progress is not None:
+            progress(1)
+    state, _, settled = dwell(state, frequency_ratio)
+    if progress is not None:
+        progress(1)
+    return state, bool(settled)
+
+
+# --------------------------------------------------------------------------- flights
+@njit(cache=True)
+def _crossing(q0, q1, v0, v1, dt):
+    """Fraction s of a sample interval where the cubic Hermite interpolant of q
+    (values q0, q1, slopes v0, v1, interval dt in tau) crosses q = -3/2 (bisection;
+    the ends lie on either side of it)."""
+    lo = 0.0
+    hi = 1.0
+    positive = q0 > LOSS_OF_CONTACT
+    for _ in range(CROSSING_BISECTIONS):
+        s = 0.5 * (lo + hi)
+        s2 = s * s
+        s3 = s2 * s
+        q = (
+            (2.0 * s3 - 3.0 * s2 + 1.0) * q0
+            + (s3 - 2.0 * s2 + s) * dt * v0
+            + (-2.0 * s3 + 3.0 * s2) * q1
+            + (s3 - s2) * dt * v1
+        )
+        if (q > LOSS_OF_CONTACT) == positive:
+            lo = s
+        else:
+            hi = s
+    return 0.5 * (lo + hi)
+
+
+@njit(cache=True)
+def flight_intervals(record, dt):
+    """Every flight (run of samples out of contact) of a record, in tau from its start.
+
+    Parameters
+    ----------
+    record : float[M, 4]
+        ``q, q', N/F_s, in contact`` every ``dt``.
+    dt : float
+        Sample spacing in tau.
+
+    Returns
+    -------
+    start, end : float[F]
+        The flight's bounds: where the Hermite interpolant of ``(q, q')`` between the
+        samples on either side crosses q = -3/2; a flight running into the record's start
+        (end) is cut at 0 (``M dt``, the end of the last recorded period).
+    complete : int8[F]
+        1 where both bounds lie inside the record, 0 where the record cuts the flight.
+    """
+    m = record.shape[0]
+    count = 0
+    for i in range(m):
+        if record[i, IN_CONTACT] == 0.0 and (i == 0 or record[i - 1, IN_CONTACT] != 0.0):
+            count += 1
+    start = np.empty(count)
+    end = np.empty(count)
+    complete = np.ones(count, dtype=np.int8)
+    f = -1
+    for i in range(m):
+        out = record[i, IN_CONTACT] == 0.0
+        if out and (i == 0 or record[i - 1, IN_CONTACT] != 0.0):
+            f += 1
+            if i == 0:
+                start[f] = 0.0
+                complete[f] = 0
+            else:
+                s = _crossing(record[i - 1, DISPLACEMENT], record[i, DISPLACEMENT],
+                              record[i - 1, VELOCITY], record[i, VELOCITY], dt)  # fmt: skip
+                start[f] = (i - 1 + s) * dt
+        if out and (i == m - 1 or record[i + 1, IN_CONTACT] != 0.0):
+            if i == m - 1:
+                end[f] = m * dt
+                complete[f] = 0
+            else:
+                s = _crossing(record[i, DISPLACEMENT], record[i + 1, DISPLACEMENT],
+                              record[i, VELOCITY], record[i + 1, VELOCITY], dt)  # fmt: skip
+                end[f] = (i + s) * dt
+    return start, end, complete
+
+
+def longest_flight(start: np.ndarray, end: np.ndarray, complete: np.ndarray, span: float) -> float:
+    """The longest flight of a record, in tau.
+
+    The longest complete flight; a record with none uses the sweep's convention for a
+    periodic state: the pieces cut by its start and end joined as one flight (the whole
+    ``span`` if never in contact), else the longest cut piece; 0 without flights.
+    """
+    duration = end - start
+    if np.any(complete == 1):
+        return float(np.max(duration[complete == 1]))
+    if duration.size == 0:
+        return 0.0
+    if duration.size >= 2 and start[0] == 0.0 and end[-1] == span:
+        return float(min(duration[0] + duration[-1], span))
+    return float(np.max(duration))
+
+
+# --------------------------------------------------------------------------- driver
+def run_trace(
+    scene: Scene,
+    frequency_ratio: float,
+    periods: int = DEFAULT_PERIODS,
+    branch: str = "upper",
+    samples_per_period: int | None = None,
+    progress: Progress | None = None,
+) -> TraceResult:
+    """Settled time histories at one frequency ratio for every sigma of the scene.
+
+    Parameters
+    ----------
+    scene : Scene
+        Rig, damping, sigma levels, the sweep grid and dwell (for reaching W), solver,
+        lock-in harmonics.
+    frequency_ratio : float
+        W = f/f0 [1].
+    periods : int
+        Whole excitation periods P to record.
+    branch : {"upper", "lower"}
+        Reach W as a down sweep from ``sweep.stop`` or an up sweep from ``sweep.start``.
+    samples_per_period : int, optional
+        Samples kept per period, a divisor of ``solver.steps_per_period`` (default: every
+        step, so that the spectrum's lines equal the lock-in's).
+    progress : callable, optional
+        Called with 1 after each dwell.
+
+    Returns
+    -------
+    TraceResult
+        Only the records (``S x P x samples_per_period x 4``) and the spectra
+        (``S x (M/2 + 1)``) grow with the record; the integration keeps no history.
+
+    Raises
+    ------
+    ConfigError
+        Bad frequency, periods, branch or samples per period.
+    StabilityError, IntegrationError
+        As for a sweep.
+    """
+    check_trace(frequency_ratio, periods, branch)
+    samples_per_period = resolve_samples_per_period(scene, samples_per_period)
+    check_stability(scene)
+    w = float(frequency_ratio)
+    periods = int(periods)
+    stride = scene.solver.steps_per_period // samples_per_period
+    sample_step = integrators.step_size(w, scene.solver.steps_per_period) * stride
+    sigma = np.asarray(scene.excitation.sigma, dtype=float)
+    harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
+    samples = periods * samples_per_period
+    path = approach_path(scene.sweep.frequency_ratios, w, branch)
+    steady_state = steady_state_method(scene)
+
+    record = np.empty((sigma.size, samples, RECORD_COLUMNS))
+    analyser = AmplitudeSpectrum(samples)
+    spectrum = np.empty((sigma.size, analyser.bins))
+    amplitude = np.empty((sigma.size, harmonics.size))
+    phase = np.empty_like(amplitude)
+    scalars = {name: np.empty(sigma.size) for name in (
+        "mean_force", "force_max", "force_min", "contact_loss_fraction", "flight_tau")}  # fmt: skip
+    settled = np.zeros(sigma.size, dtype=bool)
+    periodic = np.zeros(sigma.size, dtype=bool)
+    flights = []
+    steps = 0
+    for s, level in enumerate(sigma):
+        oscillator = Oscillator(scene, level)
+        try:
+            state, settled[s] = reach(oscillator, w, path, steady_state, progress)
+            state, reading = oscillator.measure(state, w, periods, record=record[s], stride=stride)
+        except HertzsweepError as exc:
+            raise type(exc)(f"{scene.source}: trace at w = {w:g}: {exc}") from None
+        steps += oscillator.steps
+        analyser.amplitude(record[s, :, NORMAL_FORCE], offset=1.0, out=spectrum[s])
+        amplitude[s], phase[s] = reading.amplitude, reading.phase
+        scalars["mean_force"][s] = reading.mean_force
+        scalars["force_max"][s] = reading.force_max
+        scalars["force_min"][s] = reading.force_min
+        scalars["contact_loss_fraction"][s] = reading.contact_loss_fraction
+        periodic[s] = reading.periodic
+        start, end, complete = flight_intervals(record[s], sample_step)
+        scalars["flight_tau"][s] = longest_flight(start, end, complete, samples * sample_step)
+        flights.append((start, end, complete))
+
+    width = max((f[0].size for f in flights), default=0)
+    flight_start = np.full((sigma.size, width), np.nan)
+    flight_end = np.full((sigma.size, width), np.nan)
+    flight_complete = np.full((sigma.size, width), -1, dtype=np.int8)
+    for s, (start, end, complete) in enumerate(flights):
+        flight_start[s, : start.size] = start
+        flight_end[s, : end.size] = end
+        flight_complete[s, : complete.size] = complete
+
+    return TraceResult(
+        frequency_ratio=w,
+        branch=branch,
+        periods=periods,
+        samples_per_period=samples_per_period,
+        stride=stride,
+        sample_step=sample_step,
+        sigma=sigma,
+        harmonics=harmonics,
+        record=record,
+        spectrum=spectrum,
+        harmonic_order=harmonic_orders(samples, periods),
+        amplitude=amplitude,
+        phase=phase,
+        flight_start=flight_start,
+        flight_end=flight_end,
+        flight_complete=flight_complete,
+        settled=settled,
+        periodic=periodic,
+        approach=path,
+        spectrum_backend=analyser.backend,
+        steps=steps,
+        **scalars,
+    )
+
+
+def trace_count(scene: Scene, frequency_ratio: float, branch: str) -> int:
+    """Number of dwells a trace runs (for progress bars)."""
+    path = approach_path(scene.sweep.frequency_ratios, frequency_ratio, branch)
+    return len(scene.excitation.sigma) * (path.size + 1)
+
+
+__all__ = [
+    "BRANCHES",
+    "TraceResult",
+    "approach_path",
+    "flight_intervals",
+    "longest_flight",
+    "reach",
+    "run_trace",
+    "trace_count",
+]
