@@ -80,19 +80,30 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
                               "1"),
     "bifurcation_point": ("index of the branch point at the bifurcation (-1 pads)", "1"),
     # --- branch attributes (insert above this line)
+    # study
+    "damping_ratio": ("damping ratio zeta (eq. 4)", "1"),
+    "damping_exponent": ("exponent n of the contact damping law (eq. 11)", "1"),
+    "damping_law": ("damping law: viscous (eq. 8) or contact (eq. 11)", "1"),
+    "case_failed": ("the study case failed or has no result (its values are fill values)",
+                    "1"),
+    "case_id": ("sha256 of the case's resolved configuration: its part OUT.parts/<id>.nc",
+                "1"),
     # --- study attributes (insert above this line)
     # accuracy
     "setting_label": ("solver settings of the rung", "1"),
     "steps_per_period": ("integration steps per excitation period", "1"),
     "settle": ("settling: periods, or auto:tolerance", "1"),
     "steady_state": ("steady-state method: settle or shooting", "1"),
-    "error_h1": ("max abs error of the H1 amplitude over the sweep, relative to the "
-                 "reference's largest H1", "1"),
-    "error_h2": ("max abs error of the H2 amplitude over the sweep, relative to the "
-                 "reference's largest H2", "1"),
+    "error_h1": (
+        "max abs error of the H1 amplitude over the sweep, relative to the reference's largest H1",
+        "1",
+    ),
+    "error_h2": (
+        "max abs error of the H2 amplitude over the sweep, relative to the reference's largest H2",
+        "1",
+    ),
     "error_force": ("max abs error of force_max and force_min over the sweep", "1"),
-    "error_jump": ("max abs error of the jump frequency ratio (inf: a jump missed or added)",
-                   "1"),
+    "error_jump": ("max abs error of the jump frequency ratio (inf: a jump missed or added)", "1"),
     "cost_steps": ("integration steps of the sweep", "1"),
     "wall_time": ("wall-clock time of the sweep", "s"),
     "pareto": ("on the Pareto front of cost_steps and error_h1", "1"),
@@ -378,6 +389,148 @@ def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Datas
 
 # --------------------------------------------------------------------------- study
 # (study dataset builders go here)
+GRID_UNITS = {  # units of grid coordinates that are SI config values
+    "rig.ball_radius": "m",
+    "rig.youngs_modulus": "Pa",
+    "rig.mass": "kg",
+    "rig.static_load": "N",
+    "rig.ball_mass": "kg",
+    "rig.ball_density": "kg m-3",
+}
+
+
+def _fill_value(dtype: np.dtype) -> Any:
+    """What a study writes where a case has no result: NaN, -1 for integers and flags,
+    "" for strings."""
+    if dtype.kind == "f":
+        return np.nan
+    if dtype.kind in "iu":
+        return -1
+    if dtype.kind == "b":
+        return False
+    return ""
+
+
+def _grid_attrs(key: str, dim: str) -> dict[str, Any]:
+    """CF attributes of a grid coordinate: from :data:`ATTRIBUTES` when the dimension is
+    named there, else the config key itself."""
+    out = attrs(dim) if dim in ATTRIBUTES else {
+        "long_name": f"study grid value of {key}", "units": GRID_UNITS.get(key, "1")}  # fmt: skip
+    out["config_key"] = key
+    return out
+
+
+def study_dataset(
+    study_kind: str,
+    grid: Any,
+    case_dims: Any,
+    parts: Mapping[tuple[int, ...], xr.Dataset | None],
+    case_ids: Mapping[tuple[int, ...], str],
+    scene: Scene,
+    drop_attributes: Any = (),
+    history: str | None = None,
+    extra: Mapping[str, Any] | None = None,
+) -> xr.Dataset:
+    """ONE dataset of a study's cases, concatenated along the grid dimensions.
+
+    Parameters
+    ----------
+    study_kind : ``"sweep"`` or ``"branch"``: the kind of every part.
+    grid : ``[(key, dim, values), ...]``, every grid key in study order.
+    case_dims : the dims the parts vary along, in grid order: every grid dim but
+        ``sigma`` when each case holds all the grid's sigma values.
+    parts : ``{index along case_dims: dataset or None}``; None (a failed case) becomes
+        fill values (NaN; -1 for integers and flags; "" for strings).
+    case_ids : ``{index: hash}``, the ``case_id`` variable.
+    scene : a case's scene, for the global attributes; ``drop_attributes`` (the config
+        values that vary along the grid) are left out.
+
+    Notes
+    -----
+    Dimensions: ``direction`` first (sweep studies), then the grid dims in study order,
+    then the rest of the part's dims (``frequency_ratio``, ``harmonic``; ``point``, ...).
+    Dims without coordinates in the parts (``point``, ``bifurcation``) are padded to the
+    longest part. ``case_failed`` (grid dims) is 1 where a case failed. A sweep study
+    keeps the parts' ``jump_frequency_ratio(direction, ...grid...)``.
+    """
+    values_of = {dim: list(values) for _, dim, values in grid}
+    template = next(ds for ds in parts.values() if ds is not None)
+    fills = {name: _fill_value(var.dtype) for name, var in template.variables.items()}
+    bare_dims: set[str] = set()
+    for ds in parts.values():
+        if ds is not None:
+            bare_dims.update(d for d in ds.dims if d not in ds.indexes)
+
+    def prepared(index: tuple[int, ...]) -> xr.Dataset:
+        ds = parts.get(index)
+        missing = ds is None
+        if missing:
+            ds = template.copy(deep=True)
+            for name in ds.data_vars:
+                ds[name] = ds[name].copy(data=np.full(ds[name].shape, fills[name],
+                                                      dtype=ds[name].dtype))  # fmt: skip
+        ds = ds.assign_coords({d: np.arange(ds.sizes[d]) for d in bare_dims if d in ds.dims})
+        new = {}
+        for dim, i in zip(case_dims, index, strict=True):
+            value = values_of[dim][i]
+            if dim == "sigma":
+                if missing:
+                    ds = ds.isel(sigma=[0]).assign_coords(sigma=[value])
+            else:
+                new[dim] = [value]
+        return ds.expand_dims(new) if new else ds
+
+    shape = [len(values_of[d]) for d in case_dims]
+
+    def nested(prefix: tuple[int, ...]) -> Any:
+        if len(prefix) == len(shape):
+            return prepared(prefix)
+        return [nested(prefix + (i,)) for i in range(shape[len(prefix)])]
+
+    if case_dims:
+        ds = xr.combine_nested(
+            nested(()), concat_dim=list(case_dims), data_vars="all", coords="different",
+            compat="equals", join="outer", fill_value=fills, combine_attrs="override",
+        )  # fmt: skip
+    else:
+        ds = prepared(())
+    ds = ds.drop_vars([d for d in bare_dims if d in ds.coords])
+    grid_dims = [dim for _, dim, _ in grid]
+    head = [d for d in ("direction",) if d in ds.dims]
+    order = head + [d for d in grid_dims if d in ds.dims and d not in head]
+    order += [d for d in template.dims if d not in order]
+    ds = ds.transpose(*order)
+    for key, dim, _ in grid:
+        if dim != "sigma":
+            ds[dim].attrs = _grid_attrs(key, dim)
+    failed = xr.DataArray(
+        np.zeros([len(values_of[d]) for d in grid_dims], dtype=np.int8),
+        dims=grid_dims, coords={d: ds[d] for d in grid_dims}, attrs=attrs("case_failed"),
+    )  # fmt: skip
+    ids = np.empty(shape, dtype=object)
+    for index, ds_part in parts.items():
+        ids[index] = case_ids.get(index, "")
+        if ds_part is None:
+            where = {d: values_of[d][i] for d, i in zip(case_dims, index, strict=True)}
+            failed.loc[where] = 1
+    failed.attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")
+    ds["case_failed"] = failed
+    ds["case_id"] = (tuple(case_dims), ids, attrs("case_id"))
+    if bool(failed.any()):
+        for name in ds.data_vars:
+            meanings = ds[name].attrs.get("flag_meanings")
+            if meanings == "no yes" and name != "case_failed":
+                ds[name].attrs.update(flag_values=np.array([-1, 0, 1], dtype=np.int8),
+                                      flag_meanings="missing no yes")  # fmt: skip
+    steps = [int(p.attrs.get("integration_steps", 0)) for p in parts.values() if p is not None]
+    title = f"Parameter study ({study_kind}) of a preloaded Hertzian contact"
+    out = global_attributes(scene, title, "study", history)
+    for name in drop_attributes:
+        out.pop(name, None)
+    out.pop("scene_file", None)
+    out.update(study_kind=study_kind, integration_steps=int(sum(steps)))
+    ds.attrs = out
+    return merge_attributes(ds, extra or {})
 
 # --------------------------------------------------------------------------- accuracy
 # (accuracy dataset builders go here)
@@ -389,8 +542,9 @@ def accuracy_dataset(report: Any, scene: Scene, history: str | None = None) -> x
     ``steady_state``; the errors against the reference, the cost, the Pareto flag and the
     observed order ``order_h1`` per rung. Attributes: ``observed_order``, ``reference_label``, the
     reference's Richardson error estimates ``reference_error_h1`` (``_h2``, ``_force``),
-    ``settle_check_h1``, ``scene_setting``, ``target`` and ``recommended`` (label; empty
-    when none meets the target or no target was given), ``notes``.
+    ``settle_check_h1``, ``scene_setting``, ``target``, ``target_margin`` (the reference's
+    error counted against it) and ``recommended`` (label; empty when none meets the target
+    or no target was given), ``notes``.
     """
     rungs = report.rungs
     settings = [r.setting for r in rungs]
@@ -434,6 +588,7 @@ def accuracy_dataset(report: Any, scene: Scene, history: str | None = None) -> x
         "scene_setting": report.scene_setting.label,
         "recommended": "" if recommended is None else rungs[recommended].setting.label,
         "target": float("nan") if report.target is None else float(report.target),
+        "target_margin": float(report.target_margin),
         "error_metric": "error_h1: max abs H1 error over the sweep / the reference's max H1",
         "notes": "; ".join(report.notes),
     }
