@@ -119,3 +119,11 @@ def test_sigterm_keeps_finished_sweeps(tmp_path):
     # the sweep cut short keeps the dwells it finished; those not reached are NaN
     assert np.all(np.any(np.isnan(ds.amplitude.values[~finished]), axis=(1, 2)))
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_output_file_mode_follows_umask(sweep_file):
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    assert sweep_file.stat().st_mode & 0o777 == 0o666 & ~mask

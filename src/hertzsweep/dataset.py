@@ -72,6 +72,10 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "arclength": ("pseudo-arclength along the branch in the scaled coordinates "
                   "(w, q/Q, q'/(w Q)), Q = sigma/(2 zeta)", "1"),
     "branch_complete": ("branch continued across the whole frequency span", "1"),
+    "branch_end": ("how the branch ended: end, start (left the span where it began), "
+                   "stalled, retraced, max-points", "1"),
+    "branch_bridges": ("gaps of the branch crossed at fixed frequency (discontinuous "
+                       "contact damping)", "1"),
     "bifurcation_frequency_ratio": ("frequency ratio of the bifurcation", "1"),
     "bifurcation_frequency": ("frequency of the bifurcation", "Hz"),
     "bifurcation_kind": ("kind of bifurcation: fold, period-doubling or neimark-sacker "
@@ -323,6 +327,8 @@ def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Datas
     found_kind = np.full((n_sigma, n_found), "", dtype=object)
     found_point = np.full((n_sigma, n_found), -1, dtype=np.int32)
     complete = np.zeros(n_sigma, dtype=np.int8)
+    ends = np.array([branch.end for branch in branches], dtype=object)
+    bridges = np.array([branch.bridges for branch in branches], dtype=np.int32)
     for s, branch in enumerate(branches):
         size = branch.size
         for name, values in per_point.items():
@@ -354,6 +360,8 @@ def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Datas
         "stable": (at_point, stable),
         "arclength": (at_point, per_point["arclength"]),
         "branch_complete": (("sigma",), complete),
+        "branch_end": (("sigma",), ends),
+        "branch_bridges": (("sigma",), bridges),
         "bifurcation_frequency_ratio": (("sigma", "bifurcation"), found_w),
         "bifurcation_frequency": (("sigma", "bifurcation"), found_w * f0),
         "bifurcation_kind": (("sigma", "bifurcation"), found_kind),
@@ -616,11 +624,18 @@ def write_atomic(ds: xr.Dataset, path: str | os.PathLike) -> Path:
             if var.dtype.kind == "f" and var.size > 1
         }
         ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a result is a normal file
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def open_dataset(path: str | os.PathLike) -> xr.Dataset:
