@@ -1,0 +1,356 @@
+"""Periodic orbits by shooting: Newton on the one-period map of the central-difference scheme.
+
+A T-periodic response (``T = 2 pi / w``) of the scheme is a fixed point ``x = P(x)`` of its
+one-period map, the state being the pair ``x = (q[-1], q[0])`` at excitation phase 0 and
+step ``h = 2 pi / (w N)`` (:mod:`hertzsweep.tangent`). Newton's method with the exact
+Jacobian of the discrete map,
+
+    (M - I) dx = -(P(x) - x),    M = dP/dx  (the monodromy matrix),
+
+converges quadratically, and its fixed point is the very state a long settled run of
+:func:`hertzsweep.integrators.advance` tends to (the same update, equal to round-off). The Floquet
+multipliers are the eigenvalues of M; the orbit is asymptotically stable when both lie
+inside the unit circle.
+
+Coordinates. Residuals are measured in units of the orbit scale ``Q`` (:func:`orbit_scale`,
+the linear resonance amplitude ``sigma / (2 zeta)``), and the continuation works in the
+scaled coordinates ``z = (q[0], (q[0] - q[-1]) / theta) / Q`` with ``theta = w h = 2 pi / N``:
+displacement and velocity over w at phase 0, both of the order of the response amplitude
+over Q. ``x = B z`` with the constant matrix ``B = Q [[1, -theta], [1, 0]]``; the
+multipliers do not depend on the coordinates.
+
+Shooting-accelerated sweeps (:func:`shooting_dwell`): at each frequency step, Newton from
+the previous steady state; if it lands on a stable orbit, measure on it; otherwise a fold
+was passed and the response jumps: integrate the transient to the new attractor, then
+polish by Newton.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .config import Scene
+from .integrators import OK
+from .model import check_stability, force_bound
+from .oscillator import Oscillator, Reading, State
+from .tangent import period_map, warm_up
+
+NEWTON_TOLERANCE = 1e-10  # residual |P(x) - x|_inf / Q of a converged orbit: 1e4 x above the
+# round-off of one period at N = 256 (about 1e-14 of Q), far below every reading's accuracy
+MAX_NEWTON_ITERATIONS = 12  # quadratic convergence needs 3-5 from a neighbouring frequency
+TRANSIENT_BLOCK = 10  # periods integrated between two checks of the one-period mismatch
+TRANSIENT_TOLERANCE = 1e-3  # |x(T) - x(0)|_inf / Q below which a transient is close enough to
+# its attractor to polish by Newton (Newton's basin around a stable orbit is far wider)
+STABILITY_MARGIN = 1e-9  # |multiplier| below 1 - this counts as stable (round-off of M)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """One period of the map at ``(z, w)`` in scaled coordinates.
+
+    Attributes
+    ----------
+    residual : float[2]
+        ``G = (P(x) - x) / Q``.
+    jacobian : float[2, 3]
+        ``dG / d(z1, z2, w)``.
+    monodromy : float[2, 2]
+        ``M = dP/dx`` (in the state coordinates ``(q[-1], q[0])``).
+    ok : bool
+        The period ended finite and within the stability limit.
+    """
+
+    residual: np.ndarray
+    jacobian: np.ndarray
+    monodromy: np.ndarray
+    ok: bool
+
+    @property
+    def error(self) -> float:
+        return float(np.max(np.abs(self.residual))) if self.ok else float("inf")
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """A Newton solve at one frequency.
+
+    Attributes
+    ----------
+    state : State
+        The fixed point (or the last iterate when not converged), excitation phase 0.
+    frequency_ratio : [1] w.
+    multipliers : complex[2]
+        Floquet multipliers, largest modulus first (a complex pair: positive imaginary
+        part first).
+    residuals : tuple of float
+        ``|P(x) - x|_inf / Q`` at each iterate, the first at the starting state.
+    converged : bool
+        The last residual is below :data:`NEWTON_TOLERANCE`.
+    """
+
+    state: State
+    frequency_ratio: float
+    multipliers: np.ndarray
+    residuals: tuple[float, ...]
+    converged: bool
+
+    @property
+    def stable(self) -> bool:
+        """Both multipliers inside the unit circle (asymptotically stable)."""
+        return bool(self.converged and np.max(np.abs(self.multipliers)) < 1.0 - STABILITY_MARGIN)
+
+
+def orbit_scale(sigma: float, zeta: float) -> float:
+    """``Q``: the linear resonance amplitude of q, ``sigma / (2 zeta)`` (zeta floored as in
+    :func:`hertzsweep.model.force_bound`), never below sigma."""
+    return force_bound(sigma, zeta) - 1.0
+
+
+def sorted_multipliers(monodromy: np.ndarray) -> np.ndarray:
+    """Eigenvalues of the monodromy matrix, largest modulus first (ties: imaginary part
+    descending, so a complex pair is ``(mu, conj(mu))``)."""
+    mu = np.linalg.eigvals(monodromy).astype(complex)
+    order = np.lexsort((-mu.imag, -np.abs(mu)))
+    return mu[order]
+
+
+class PeriodMap:
+    """The one-period map of an oscillator in scaled coordinates, with its exact Jacobian.
+
+    Every evaluation integrates one period with the tangent-linear scheme and adds
+    ``steps_per_period`` to ``oscillator.steps``.
+    """
+
+    def __init__(self, oscillator: Oscillator) -> None:
+        self.oscillator = oscillator
+        self.scale = orbit_scale(oscillator.sigma, oscillator.zeta)
+        theta = 2.0 * np.pi / oscillator.steps_per_period
+        self.basis = self.scale * np.array([[1.0, -theta], [1.0, 0.0]])  # x = basis @ z
+        self.inverse = np.linalg.inv(self.basis)
+        self._derivative = np.zeros((2, 3))
+
+    def coordinates(self, state: State) -> np.ndarray:
+        """``z`` of a state (which must be at the step of the frequency it is used with)."""
+        return self.inverse @ np.array([state.q_prev, state.q])
+
+    def state(self, z: np.ndarray, frequency_ratio: float) -> State:
+        x = self.basis @ z
+        return State(float(x[0]), float(x[1]), self.oscillator.step(frequency_ratio))
+
+    def __call__(self, z: np.ndarray, frequency_ratio: float) -> Evaluation:
+        osc = self.oscillator
+        x = self.basis @ z
+        h = osc.step(frequency_ratio)
+        q_prev, q, status = period_map(
+            float(x[0]), float(x[1]), h, osc.sigma, osc.sin_table,
+            osc.zeta, osc.law, osc.exponent, self._derivative,
+        )  # fmt: skip
+        osc.steps += osc.steps_per_period
+        derivative = self._derivative.copy()
+        monodromy = derivative[:, :2]
+        residual = (np.array([q_prev, q]) - x) / self.scale
+        jacobian = np.empty((2, 3))
+        jacobian[:, :2] = (monodromy - np.eye(2)) @ self.basis / self.scale
+        jacobian[:, 2] = derivative[:, 2] * (-h / frequency_ratio) / self.scale  # dh/dw = -h/w
+        ok = status == OK and bool(np.all(np.isfinite(residual)))
+        return Evaluation(residual, jacobian, monodromy, ok)
+
+
+def newton(
+    period: PeriodMap,
+    state: State,
+    frequency_ratio: float,
+    monotone: bool = False,
+    max_iterations: int = MAX_NEWTON_ITERATIONS,
+) -> Orbit:
+    """Newton on ``P(x) = x`` at fixed w from ``state`` (at that frequency's step).
+
+    Parameters
+    ----------
+    monotone : bool
+        Stop (not converged) as soon as a Newton correction fails to shrink (in the
+        scaled coordinates): the iterates then left the neighbourhood where Newton
+        converges to the orbit nearest the start, and a sweep must integrate instead (a
+        monotonicity test in the spirit of Deuflhard's, on the affine-invariant corrections
+        rather than on the residuals, which may rise once on the way in).
+    """
+    z = period.coordinates(state)
+    residuals: list[float] = []
+    evaluation = None
+    previous = np.inf  # size of the last Newton correction
+    for _ in range(max_iterations + 1):
+        evaluation = period(z, frequency_ratio)
+        error = evaluation.error
+        residuals.append(error)
+        if not evaluation.ok:
+            break
+        if error <= NEWTON_TOLERANCE:
+            return Orbit(
+                period.state(z, frequency_ratio),
+                frequency_ratio,
+                sorted_multipliers(evaluation.monodromy),
+                tuple(residuals),
+                True,
+            )
+        try:
+            correction = np.linalg.solve(evaluation.jacobian[:, :2], evaluation.residual)
+        except np.linalg.LinAlgError:
+            break
+        size = float(np.max(np.abs(correction)))
+        if monotone and size >= previous:
+            break
+        previous = size
+        z = z - correction
+    multipliers = (
+        sorted_multipliers(evaluation.monodromy)
+        if evaluation is not None and evaluation.ok
+        else np.full(2, np.nan + 0j)
+    )
+    return Orbit(period.state(z, frequency_ratio), frequency_ratio, multipliers,
+                 tuple(residuals), False)  # fmt: skip
+
+
+def mismatch(period: PeriodMap, before: State, after: State) -> float:
+    """``|x(T) - x(0)|_inf / Q``: how far a state is from repeating after one period."""
+    return max(abs(after.q - before.q), abs(after.q_prev - before.q_prev)) / period.scale
+
+
+def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods: int) -> Orbit:
+    """Integrate the transient from ``state`` to its attractor, then polish by Newton.
+
+    Blocks of :data:`TRANSIENT_BLOCK` periods until the one-period mismatch is below
+    :data:`TRANSIENT_TOLERANCE`; there Newton (monotone) must land on a stable orbit,
+    otherwise integration goes on, at most ``max_periods`` periods in all. Returns the
+    last Newton solve (``stable`` false when no stable period-1 orbit was reached, e.g.
+    after a period doubling), whose state is where the integration stopped when Newton
+    failed.
+    """
+    osc = period.oscillator
+    periods = 0
+    orbit = None
+    while periods < max_periods:
+        block = min(TRANSIENT_BLOCK, max_periods - periods)
+        state = osc.advance(state, frequency_ratio, block - 1)
+        after = osc.advance(state, frequency_ratio, 1)
+        periods += block
+        close = mismatch(period, state, after) <= TRANSIENT_TOLERANCE
+        state = after
+        if close:
+            orbit = newton(period, state, frequency_ratio, monotone=True)
+            if orbit.stable:
+                return orbit
+    if orbit is None or orbit.converged:
+        orbit = Orbit(state, frequency_ratio, np.full(2, np.nan + 0j), (np.inf,), False)
+    return replace(orbit, state=state)
+
+
+def find_orbit(period: PeriodMap, state: State, frequency_ratio: float) -> Orbit:
+    """The stable orbit a run from ``state`` reaches: Newton first (monotone), then
+    :func:`settle` if Newton fails or lands on an unstable orbit."""
+    orbit = newton(period, state, frequency_ratio, monotone=True)
+    if orbit.stable:
+        return orbit
+    max_periods = period.oscillator.scene.sweep.max_settle_periods
+    return settle(period, state, frequency_ratio, max_periods)
+
+
+def shooting_dwell(
+    oscillator: Oscillator, state: State, frequency_ratio: float
+) -> tuple[State, Reading, bool]:
+    """One stepped-sine dwell by shooting: the drop-in for :meth:`Oscillator.dwell` that
+    :func:`hertzsweep.sweep.run_sweep` uses when ``[sweep] steady_state = "shooting"``.
+
+    Newton from the previous steady state (retuned to this frequency's step); on a stable
+    orbit, measure ``measure_periods`` periods from it. Where Newton fails or lands on an
+    unstable orbit (a fold was passed), integrate the transient to the new attractor and
+    polish by Newton (:func:`find_orbit`). ``settled`` is true when Newton converged on a
+    stable orbit; otherwise the reading is of the state the integration reached.
+
+    Returns
+    -------
+    tuple
+        ``(state, reading, settled)`` as :meth:`Oscillator.dwell`.
+    """
+    period = PeriodMap(oscillator)
+    state = oscillator.retune(state, frequency_ratio)
+    orbit = find_orbit(period, state, frequency_ratio)
+    measured = oscillator.scene.sweep.measure_periods
+    state, reading = oscillator.measure(orbit.state, frequency_ratio, measured)
+    return state, reading, orbit.stable
+
+
+def compare_with_settle(scene: Scene) -> dict:
+    """The same sweeps by long settling and by shooting: cost and agreement.
+
+    Returns
+    -------
+    dict
+        ``settle_steps``, ``shooting_steps`` (integration steps, tangent steps included),
+        ``step_ratio`` (settle / shooting), ``settle_seconds``, ``shooting_seconds``
+        (wall time, kernels compiled beforehand), ``max_h1_difference`` (largest
+        ``|H1_shooting - H1_settle|`` over the grid, in units of F_s),
+        ``max_h1_relative_difference``, ``max_h1_difference_settled`` (the same over the
+        dwells the settled sweep reports settled), ``settle_unsettled`` (the others: where
+        ``settle_periods`` left a transient, the first dwells after a jump),
+        ``jump_frequency_ratio_settle`` and
+        ``jump_frequency_ratio_shooting`` (lists over direction and sigma), ``dwells``,
+        ``shooting_unsettled`` (dwells where no stable period-1 orbit was found).
+    """
+    from .sweep import run_sweep
+
+    check_stability(scene)
+    warm_up()
+    _warm_up_integrators(scene)
+    results = {}
+    seconds = {}
+    for method in ("settle", "shooting"):
+        variant = replace(scene, sweep=replace(scene.sweep, steady_state=method))
+        start = time.perf_counter()
+        results[method] = run_sweep(variant)
+        seconds[method] = time.perf_counter() - start
+    settled, shot = results["settle"], results["shooting"]
+    h1_settle = settled.amplitude[..., 0]
+    h1_shooting = shot.amplitude[..., 0]
+    difference = np.abs(h1_shooting - h1_settle)
+    return {
+        "settle_steps": int(settled.steps),
+        "shooting_steps": int(shot.steps),
+        "step_ratio": settled.steps / max(shot.steps, 1),
+        "settle_seconds": seconds["settle"],
+        "shooting_seconds": seconds["shooting"],
+        "time_ratio": seconds["settle"] / max(seconds["shooting"], 1e-12),
+        "max_h1_difference": float(np.max(difference)),
+        "max_h1_relative_difference": float(np.max(difference / np.abs(h1_settle))),
+        "max_h1_difference_settled": float(np.max(difference, where=settled.settled, initial=0)),
+        "settle_unsettled": int(np.sum(~settled.settled)),
+        "jump_frequency_ratio_settle": settled.jump_frequency_ratio.tolist(),
+        "jump_frequency_ratio_shooting": shot.jump_frequency_ratio.tolist(),
+        "dwells": int(h1_settle.size),
+        "shooting_unsettled": int(np.sum(~shot.settled)),
+    }
+
+
+def _warm_up_integrators(scene: Scene) -> None:
+    """Compile the integration kernels (outside any timing)."""
+    oscillator = Oscillator(scene, scene.excitation.sigma[0])
+    w = float(scene.sweep.frequency_ratios[0])
+    state = oscillator.advance(oscillator.rest(w), w, 1)
+    oscillator.measure(state, w, 1)
+
+
+__all__ = [
+    "Evaluation",
+    "Orbit",
+    "PeriodMap",
+    "compare_with_settle",
+    "find_orbit",
+    "mismatch",
+    "newton",
+    "orbit_scale",
+    "settle",
+    "shooting_dwell",
+    "sorted_multipliers",
+]
