@@ -10,7 +10,7 @@ from contextlib import contextmanager
 
 @contextmanager
 def progress_bar(
-    total: int, desc: str, enabled: bool = True
+    total: int, desc: str, enabled: bool = True, unit: str = "dwell"
 ) -> Iterator[Callable[[int], None] | None]:
     """A tqdm bar's ``update`` for ``total`` units, or None when disabled or not a TTY."""
     if not enabled or not sys.stderr.isatty():
@@ -18,5 +18,5 @@ def progress_bar(
         return
     from tqdm import tqdm
 
-    with tqdm(total=total, desc=desc, unit="dwell", file=sys.stderr, leave=False) as bar:
+    with tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, leave=False) as bar:
         yield bar.update

@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import math
-import sys
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 
 import click
 
@@ -13,20 +10,9 @@ from ..accuracy import AccuracyReport, build_ladder, parse_settle_list, parse_st
 from ..accuracy import assess as assess_ladder
 from ..dataset import accuracy_dataset, write_atomic
 from ..model import check_stability
+from ..progress import progress_bar
 from . import cli
 from .options import output_option, quiet_option, read_scene, scene_argument, set_option
-
-
-@contextmanager
-def ladder_bar(total: int, enabled: bool) -> Iterator[Callable[[int], None] | None]:
-    """A tqdm bar over the settings of the ladder, on stderr (None without a TTY)."""
-    if not enabled or not sys.stderr.isatty():
-        yield None
-        return
-    from tqdm import tqdm
-
-    with tqdm(total=total, desc="accuracy", unit="setting", file=sys.stderr, leave=False) as bar:
-        yield bar.update
 
 
 @cli.command("accuracy")
@@ -73,7 +59,7 @@ def accuracy_command(
     steps = parse_steps(steps_text) if steps_text is not None else None
     settle = parse_settle_list(settle_text) if settle_text is not None else None
     ladder = build_ladder(scene, steps, settle, quick)
-    with ladder_bar(len(ladder.settings), not quiet) as progress:
+    with progress_bar(len(ladder.settings), "accuracy", not quiet, unit="setting") as progress:
         rungs, failures = run_ladder(scene, ladder, progress)
     report = assess_ladder(rungs, ladder, target, failures)
     write_atomic(accuracy_dataset(report, scene), output)

@@ -30,7 +30,7 @@ def branch_command(scene_file: str, output: str, overrides: tuple[str, ...], qui
     for every sigma: stable and unstable branches, Floquet multipliers, located folds,
     period doublings and Neimark-Sacker points; prints the bifurcations."""
     scene = read_scene(scene_file, overrides)
-    with progress_bar(progress_total(scene), "branch", not quiet) as progress:
+    with progress_bar(progress_total(scene), "branch", not quiet, unit="%") as progress:
         result = run_branch(scene, progress)
     write_atomic(branch_dataset(result, scene), output)
     click.echo(summary(result, scene))
