@@ -67,31 +67,40 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "bifurcation": ("index of the located bifurcation along the branch", "1"),
     "multiplier_real": ("real part of the Floquet multiplier of the periodic orbit", "1"),
     "multiplier_imag": ("imaginary part of the Floquet multiplier of the periodic orbit", "1"),
-    "stable": ("periodic orbit asymptotically stable (both multipliers inside the unit "
-               "circle); -1 pads", "1"),
-    "arclength": ("pseudo-arclength along the branch in the scaled coordinates "
-                  "(w, q/Q, q'/(w Q)), Q = sigma/(2 zeta)", "1"),
+    "stable": (
+        "periodic orbit asymptotically stable (both multipliers inside the unit circle); -1 pads",
+        "1",
+    ),
+    "arclength": (
+        "pseudo-arclength along the branch in the scaled coordinates "
+        "(w, q/Q, q'/(w Q)), Q = sigma/(2 zeta)",
+        "1",
+    ),
     "branch_complete": ("branch continued across the whole frequency span", "1"),
-    "branch_end": ("how the branch ended: end, start (left the span where it began), "
-                   "stalled, retraced, max-points", "1"),
-    "branch_bridges": ("gaps of the branch crossed at fixed frequency (discontinuous "
-                       "contact damping)", "1"),
+    "branch_end": (
+        "how the branch ended: end, start (left the span where it began), "
+        "stalled, retraced, max-points",
+        "1",
+    ),
+    "branch_bridges": (
+        "gaps of the branch crossed at fixed frequency (discontinuous contact damping)",
+        "1",
+    ),
     "bifurcation_frequency_ratio": ("frequency ratio of the bifurcation", "1"),
     "bifurcation_frequency": ("frequency of the bifurcation", "Hz"),
-    "bifurcation_kind": ("kind of bifurcation: fold, period-doubling or neimark-sacker "
-                         "(empty pads)", "1"),
-    "bifurcation_amplitude": ("amplitude of harmonic 1 of N/F_s at the bifurcation (peak)",
-                              "1"),
+    "bifurcation_kind": (
+        "kind of bifurcation: fold, period-doubling or neimark-sacker (empty pads)",
+        "1",
+    ),
+    "bifurcation_amplitude": ("amplitude of harmonic 1 of N/F_s at the bifurcation (peak)", "1"),
     "bifurcation_point": ("index of the branch point at the bifurcation (-1 pads)", "1"),
     # --- branch attributes (insert above this line)
     # study
     "damping_ratio": ("damping ratio zeta (eq. 4)", "1"),
     "damping_exponent": ("exponent n of the contact damping law (eq. 11)", "1"),
     "damping_law": ("damping law: viscous (eq. 8) or contact (eq. 11)", "1"),
-    "case_failed": ("the study case failed or has no result (its values are fill values)",
-                    "1"),
-    "case_id": ("sha256 of the case's resolved configuration: its part OUT.parts/<id>.nc",
-                "1"),
+    "case_failed": ("the study case failed or has no result (its values are fill values)", "1"),
+    "case_id": ("sha256 of the case's resolved configuration: its part OUT.parts/<id>.nc", "1"),
     # --- study attributes (insert above this line)
     # accuracy
     "setting_label": ("solver settings of the rung", "1"),
@@ -394,7 +403,6 @@ def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Datas
     return ds
 
 
-
 # --------------------------------------------------------------------------- study
 # (study dataset builders go here)
 GRID_UNITS = {  # units of grid coordinates that are SI config values
@@ -539,6 +547,7 @@ def study_dataset(
     out.update(study_kind=study_kind, integration_steps=int(sum(steps)))
     ds.attrs = out
     return merge_attributes(ds, extra or {})
+
 
 # --------------------------------------------------------------------------- accuracy
 # (accuracy dataset builders go here)

@@ -1,0 +1,805 @@
+"""Paper-style figures from hertzsweep datasets (the views of Figures 3-17 of the paper).
+
+Pure builders: a dataset in, a :class:`matplotlib.figure.Figure` out, drawn on an Agg
+canvas (no screen, no pyplot state, no file written; the command line saves it). The
+builder is picked by the dataset's ``hertzsweep_kind`` attribute (:func:`figure`):
+
+- ``sweep``: amplitude and phase of each harmonic against the frequency ratio, up sweeps
+  filled markers, down sweeps open ones, one colour per sigma (Figures 3, 4, 5, 9, 10);
+  view ``forces``: extremes of N/F_s and the contact-loss share (Figure 6).
+- ``branch``: the periodic-orbit branches, stable solid, unstable dotted, folds and other
+  bifurcations marked, optionally over a sweep (Figures 13, 14).
+- ``trace``: N/F_s against time in ms with the flights shaded, and the amplitude
+  spectrum against the harmonic order (Figures 7, 8, 12, 16, 17).
+- ``study``: the jump frequency against sigma, one curve per damping law (Figure 15).
+- ``accuracy``: error against cost, log-log, the Pareto front highlighted.
+
+Figures have a fixed size in inches and :data:`DPI`, so a PNG's pixel size is known in
+advance. A second axis in Hz uses the dataset's ``natural_frequency``.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+
+import numpy as np
+import xarray as xr
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+from .errors import HertzsweepError
+
+DPI = 100  # dots per inch of the raster formats: a figure of W x H inches is 100 W x 100 H px
+KINDS = ("sweep", "trace", "branch", "study", "accuracy")
+VIEWS: dict[str, tuple[str, ...]] = {  # the first view of each kind is its default
+    "sweep": ("harmonics", "amplitude", "forces"),
+    "branch": ("harmonics", "amplitude"),
+    "trace": ("both", "time", "spectrum"),
+    "study": ("jumps",),
+    "accuracy": ("errors",),
+}
+COLOURS = (  # matplotlib's tab10, one per sigma (or per curve)
+    "#1f77b4",
+    "#d62728",
+    "#2ca02c",
+    "#ff7f0e",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#7f7f7f",
+    "#bcbd22",
+    "#17becf",
+)
+MARKER_SIZE = 4.0  # [pt] sweep markers: dense grids (100+ points) stay readable
+SPECTRUM_ORDERS = 8.5  # highest harmonic order shown in a spectrum: the paper's Figure 8
+# shows the first few; beyond 8 the lines of these responses are below 1e-3 of H1
+
+W_LABEL = r"frequency ratio $\varpi = f/f_0$ [1]"
+HZ_LABEL = "frequency $f$ [Hz]"
+FORCE_LABEL = r"normal force $N/F_s$ [1]"
+FOLD_MARKERS = {  # bifurcation kind -> (marker, label)
+    "fold": ("D", "fold (saddle-node)"),
+    "period-doubling": ("s", "period doubling"),
+    "neimark-sacker": ("^", "Neimark-Sacker"),
+}
+
+
+# --------------------------------------------------------------------------- dispatch
+def kind_of(ds: xr.Dataset) -> str:
+    """The dataset's ``hertzsweep_kind``.
+
+    Raises
+    ------
+    HertzsweepError
+        The attribute is missing or names no known kind.
+    """
+    kind = ds.attrs.get("hertzsweep_kind")
+    if kind is None:
+        raise HertzsweepError("not a hertzsweep dataset (no 'hertzsweep_kind' attribute)")
+    if kind not in KINDS:
+        known = ", ".join(KINDS)
+        raise HertzsweepError(f"hertzsweep_kind: unknown kind {kind!r} (known: {known})")
+    return str(kind)
+
+
+def figure(
+    ds: xr.Dataset,
+    view: str | None = None,
+    harmonics: Sequence[int] | None = None,
+    sigma: Sequence[float] | None = None,
+    overlay: xr.Dataset | None = None,
+) -> Figure:
+    """The paper-style figure of any hertzsweep dataset, picked by its kind.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A dataset written by hertzsweep (sweep, trace, branch, study or accuracy).
+    view : str, optional
+        One of :data:`VIEWS` for the kind; default the first.
+    harmonics : sequence of int, optional
+        The harmonic orders to draw (sweep and branch); default all.
+    sigma : sequence of float, optional
+        The input levels to draw (datasets with a ``sigma`` dimension); default all.
+    overlay : xarray.Dataset, optional
+        A sweep dataset drawn as markers over a branch (Figures 13, 14).
+
+    Raises
+    ------
+    HertzsweepError
+        Unknown kind or view, or a harmonic or sigma the dataset does not hold.
+    """
+    kind = kind_of(ds)
+    view = check_view(kind, view)
+    if sigma is not None:
+        ds = select_sigma(ds, sigma)
+    if kind == "sweep":
+        return sweep_figure(ds, view, harmonics)
+    if kind == "branch":
+        return branch_figure(ds, view, harmonics, overlay)
+    if kind == "trace":
+        return trace_figure(ds, view)
+    if kind == "study":
+        return study_figure(ds)
+    return accuracy_figure(ds)
+
+
+def check_view(kind: str, view: str | None) -> str:
+    """The view to draw: ``view`` if the kind has it, else its default (None)."""
+    views = VIEWS[kind]
+    if view is None:
+        return views[0]
+    if view not in views:
+        raise HertzsweepError(
+            f"--view: {kind} datasets have views {', '.join(views)}; got {view!r}"
+        )
+    return view
+
+
+def select_sigma(ds: xr.Dataset, sigma: Sequence[float]) -> xr.Dataset:
+    """The dataset at the given input levels (each must match one within 1e-9 relative)."""
+    if "sigma" not in ds.dims:
+        raise HertzsweepError("--sigma: this dataset has no sigma dimension")
+    held = ds.sigma.values
+    index = []
+    for value in sigma:
+        match = np.flatnonzero(np.isclose(held, value, rtol=1e-9, atol=0.0))
+        if match.size == 0:
+            raise HertzsweepError(
+                f"--sigma: {value:g} is not in the dataset (it holds {_list(held)})"
+            )
+        index.append(int(match[0]))
+    return ds.isel(sigma=index)
+
+
+def select_harmonics(ds: xr.Dataset, harmonics: Sequence[int] | None) -> xr.Dataset:
+    """The dataset restricted to the given harmonic orders (all when None)."""
+    if harmonics is None:
+        return ds
+    held = [int(k) for k in ds.harmonic.values]
+    missing = [k for k in harmonics if int(k) not in held]
+    if missing:
+        raise HertzsweepError(
+            f"--harmonic: {_list(missing)} not in the dataset (it holds {_list(held)})"
+        )
+    return ds.sel(harmonic=[int(k) for k in harmonics])
+
+
+# --------------------------------------------------------------------------- helpers
+def _list(values) -> str:
+    return ", ".join(f"{v:g}" for v in np.asarray(values, dtype=float))
+
+
+def panel_size(with_phase: bool, rows: int) -> tuple[float, float]:
+    """Figure size [in] of a sweep or branch figure: one row per harmonic, amplitude
+    (and phase) side by side."""
+    return (11.0, 1.0 + 3.2 * rows) if with_phase else (8.0, 1.4 + 3.6 * rows)
+
+
+def _new_figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _f0(ds: xr.Dataset) -> float:
+    """f0 [Hz], the rig's natural frequency, from the global attributes (NaN if absent)."""
+    return float(ds.attrs.get("natural_frequency", np.nan))
+
+
+def _hz_axis(ax, f0: float, where: str = "top") -> None:
+    """A second frequency axis in Hz, ``f = w f0`` (eq. 15)."""
+    if not np.isfinite(f0) or f0 <= 0:
+        return
+    functions = (lambda w: w * f0, lambda f: f / f0)
+    if where == "right":
+        ax.secondary_yaxis("right", functions=functions).set_ylabel(HZ_LABEL)
+    else:
+        ax.secondary_xaxis("top", functions=functions).set_xlabel(HZ_LABEL)
+
+
+def _sigma_label(sigma: float) -> str:
+    return rf"$\sigma$ = {100.0 * sigma:.3g} %"
+
+
+def _colour(i: int) -> str:
+    return COLOURS[i % len(COLOURS)]
+
+
+def _amplitude_label(k: int) -> str:
+    return f"$H_{{{k}}}$ amplitude [$F_s$]"
+
+
+def _phase_label(k: int) -> str:
+    return f"$H_{{{k}}}$ phase lag [deg]"
+
+
+def _phase_axis(ax) -> None:
+    ax.set_ylim(-5.0, 365.0)
+    ax.set_yticks([0, 90, 180, 270, 360])
+
+
+def _title(ds: xr.Dataset, text: str) -> str:
+    """A figure title with the damping of the dataset, e.g. ``(zeta = 1 %, contact damping
+    n = 1.5)``; a value the dataset does not hold as an attribute (a study's grid
+    dimension) is left out."""
+    parts = []
+    if "damping_ratio" in ds.attrs:
+        parts.append(rf"$\zeta$ = {100.0 * float(ds.attrs['damping_ratio']):.3g} %")
+    law = str(ds.attrs.get("damping_law", ""))
+    if law == "contact":
+        exponent = ds.attrs.get("damping_exponent")
+        parts.append("contact damping" + ("" if exponent is None else f" n = {float(exponent):g}"))
+    elif law:
+        parts.append(law)
+    return f"{text}  ({', '.join(parts)})" if parts else text
+
+
+def _sweep_legend(ax, sigmas: np.ndarray, directions: Sequence[str]) -> None:
+    handles = [
+        Line2D([], [], ls="none", marker="o", ms=6, color=_colour(i), label=_sigma_label(s))
+        for i, s in enumerate(sigmas)
+    ]
+    for direction in directions:
+        face = "0.2" if direction == "up" else "none"
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="none",
+                marker="o",
+                ms=6,
+                color="0.2",
+                mfc=face,
+                label=f"{direction} sweep",
+            )
+        )
+    ax.legend(handles=handles, fontsize="small", loc="best")
+
+
+def _sweep_markers(ax, ds: xr.Dataset, values: xr.DataArray, marker: str = "o") -> None:
+    """``values`` (direction, sigma, frequency_ratio) as markers: up filled, down open."""
+    w = ds.frequency_ratio.values
+    for i in range(ds.sizes["sigma"]):
+        for direction in ds.direction.values:
+            y = values.sel(direction=direction).isel(sigma=i).values
+            colour = _colour(i)
+            ax.plot(
+                w,
+                y,
+                ls="none",
+                marker=marker,
+                ms=MARKER_SIZE,
+                color=colour,
+                mew=0.8,
+                mfc=colour if direction == "up" else "none",
+            )
+
+
+# --------------------------------------------------------------------------- sweep
+def sweep_figure(
+    ds: xr.Dataset, view: str = "harmonics", harmonics: Sequence[int] | None = None
+) -> Figure:
+    """Stepped-sine sweeps as the rig shows them (Figures 3-6, 9, 10).
+
+    ``harmonics``: one row per harmonic, amplitude and phase side by side; ``amplitude``:
+    amplitudes only; ``forces``: N_max and N_min, and the contact-loss share (Figure 6).
+    Up sweeps are filled markers, down sweeps open ones, one colour per sigma.
+    """
+    if view == "forces":
+        return _sweep_forces(ds)
+    ds = select_harmonics(ds, harmonics)
+    orders = [int(k) for k in ds.harmonic.values]
+    with_phase = view == "harmonics"
+    fig = _new_figure(*panel_size(with_phase, len(orders)))
+    axes = fig.subplots(len(orders), 2 if with_phase else 1, squeeze=False, sharex=True)
+    f0 = _f0(ds)
+    for row, k in enumerate(orders):
+        _sweep_markers(axes[row, 0], ds, ds.amplitude.sel(harmonic=k))
+        axes[row, 0].set_ylabel(_amplitude_label(k))
+        if with_phase:
+            _sweep_markers(axes[row, 1], ds, ds.phase.sel(harmonic=k))
+            axes[row, 1].set_ylabel(_phase_label(k))
+            _phase_axis(axes[row, 1])
+    for ax in axes.ravel():
+        ax.grid(True, lw=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel(W_LABEL)
+    for ax in axes[0]:
+        _hz_axis(ax, f0)
+    _sweep_legend(axes[0, 0], ds.sigma.values, list(ds.direction.values))
+    fig.suptitle(_title(ds, "Stepped-sine sweep, harmonics of $N/F_s$"), fontsize="medium")
+    return fig
+
+
+def _sweep_forces(ds: xr.Dataset) -> Figure:
+    fig = _new_figure(8.0, 7.0)
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2.0, 1.0])
+    _sweep_markers(top, ds, ds.force_max, marker="o")
+    _sweep_markers(top, ds, ds.force_min, marker="o")
+    top.axhline(1.0, color="0.4", lw=0.8, ls="--")
+    top.axhline(0.0, color="0.4", lw=0.8)
+    top.set_ylabel(r"$N_{max}$ (above 1), $N_{min}$ (below 1) [$F_s$]")
+    _sweep_markers(bottom, ds, 100.0 * ds.contact_loss_fraction)
+    bottom.set_ylabel("out of contact [% of the period]")
+    bottom.set_ylim(-3.0, 100.0)
+    bottom.set_xlabel(W_LABEL)
+    for ax in (top, bottom):
+        ax.grid(True, lw=0.3)
+    _hz_axis(top, _f0(ds))
+    _sweep_legend(top, ds.sigma.values, list(ds.direction.values))
+    fig.suptitle(_title(ds, "Extremes of the normal force"), fontsize="medium")
+    return fig
+
+
+# --------------------------------------------------------------------------- branch
+def stability_segments(stable: np.ndarray) -> list[tuple[int, int, bool]]:
+    """Runs ``(start, stop, stable)`` of equal stability along a branch; each run is
+    extended by one point into the next so the drawn curve has no gaps. Points with
+    ``stable < 0`` (padding) end the branch."""
+    stable = np.asarray(stable)
+    valid = int(np.argmax(stable < 0)) if np.any(stable < 0) else stable.size
+    runs: list[tuple[int, int, bool]] = []
+    start = 0
+    for i in range(1, valid + 1):
+        if i == valid or stable[i] != stable[start]:
+            runs.append((start, min(i + 1, valid), bool(stable[start] == 1)))
+            start = i
+    return runs
+
+
+def break_wraps(x: np.ndarray, y: np.ndarray, phase: bool) -> tuple[np.ndarray, np.ndarray]:
+    """A phase curve with a gap (NaN) where it wraps between 360 and 0 degrees, so no
+    vertical line is drawn there; other curves unchanged."""
+    if not phase or y.size < 2:
+        return x, y
+    wraps = np.flatnonzero(np.abs(np.diff(y)) > 180.0) + 1
+    return np.insert(x.astype(float), wraps, np.nan), np.insert(y.astype(float), wraps, np.nan)
+
+
+def branch_figure(
+    ds: xr.Dataset,
+    view: str = "harmonics",
+    harmonics: Sequence[int] | None = None,
+    overlay: xr.Dataset | None = None,
+) -> Figure:
+    """Periodic-orbit branches (Figures 13, 14): stable solid, unstable dotted, the folds
+    (and period doublings, Neimark-Sacker points) marked; an optional sweep ``overlay``
+    as markers, up filled and down open."""
+    ds = select_harmonics(ds, harmonics)
+    orders = [int(k) for k in ds.harmonic.values]
+    with_phase = view == "harmonics"
+    fig = _new_figure(*panel_size(with_phase, len(orders)))
+    axes = fig.subplots(len(orders), 2 if with_phase else 1, squeeze=False, sharex=True)
+    sigmas = ds.sigma.values
+    kinds_seen: set[str] = set()
+    for i in range(sigmas.size):
+        one = ds.isel(sigma=i)
+        w = one.frequency_ratio.values
+        runs = stability_segments(one.stable.values)
+        for row, k in enumerate(orders):
+            panels = [(axes[row, 0], one.amplitude.sel(harmonic=k).values)]
+            if with_phase:
+                panels.append((axes[row, 1], one.phase.sel(harmonic=k).values))
+            for ax, y in panels:
+                for start, stop, stable in runs:
+                    ax.plot(
+                        *break_wraps(w[start:stop], y[start:stop], ax is not axes[row, 0]),
+                        color=_colour(i),
+                        ls="-" if stable else ":",
+                        lw=2.0 if stable else 1.4,
+                    )
+                kinds_seen |= _mark_bifurcations(ax, one, y, _colour(i))
+    if overlay is not None:
+        _overlay_sweep(axes, overlay, sigmas, orders, with_phase)
+    for row, k in enumerate(orders):
+        axes[row, 0].set_ylabel(_amplitude_label(k))
+        if with_phase:
+            axes[row, 1].set_ylabel(_phase_label(k))
+            _phase_axis(axes[row, 1])
+    for ax in axes.ravel():
+        ax.grid(True, lw=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel(W_LABEL)
+    for ax in axes[0]:
+        _hz_axis(ax, _f0(ds))
+    handles = [
+        Line2D([], [], color=_colour(i), lw=2, label=_sigma_label(s)) for i, s in enumerate(sigmas)
+    ]
+    handles += [
+        Line2D([], [], color="0.2", lw=2, label="stable"),
+        Line2D([], [], color="0.2", lw=1.4, ls=":", label="unstable"),
+    ]
+    handles += [
+        Line2D(
+            [],
+            [],
+            ls="none",
+            marker=FOLD_MARKERS[kind][0],
+            color="k",
+            mfc="w",
+            label=FOLD_MARKERS[kind][1],
+        )
+        for kind in FOLD_MARKERS
+        if kind in kinds_seen
+    ]
+    if overlay is not None:
+        handles += [
+            Line2D([], [], ls="none", marker="o", color="0.2", mfc=face, label=label)
+            for face, label in (("0.2", "up sweep"), ("none", "down sweep"))
+        ]
+    axes[0, 0].legend(handles=handles, fontsize="small", loc="best")
+    fig.suptitle(_title(ds, "Periodic orbits (shooting, continuation)"), fontsize="medium")
+    return fig
+
+
+def _mark_bifurcations(ax, one: xr.Dataset, y: np.ndarray, colour: str) -> set[str]:
+    """Mark the located bifurcations on a panel: at the nearest branch point's value of
+    the panel's quantity (the H1 amplitude panel gets the exact located value)."""
+    if "bifurcation_frequency_ratio" not in one:
+        return set()
+    seen = set()
+    w = one.frequency_ratio.values
+    h1 = one.amplitude.isel(harmonic=0).values
+    for wf, kind, af in zip(
+        one.bifurcation_frequency_ratio.values,
+        one.bifurcation_kind.values,
+        one.bifurcation_amplitude.values,
+        strict=True,
+    ):
+        kind = str(kind)
+        if kind not in FOLD_MARKERS or not np.isfinite(wf):
+            continue
+        distance = np.abs(w - wf) + np.abs(h1 - af) / max(np.nanmax(np.abs(h1)), 1e-300)
+        if not np.any(np.isfinite(distance)):
+            continue
+        j = int(np.nanargmin(distance))
+        value = af if np.array_equal(y, h1, equal_nan=True) else y[j]
+        ax.plot(
+            [wf],
+            [value],
+            ls="none",
+            marker=FOLD_MARKERS[kind][0],
+            ms=7,
+            mfc="white",
+            mec=colour,
+            mew=1.6,
+            zorder=5,
+        )
+        seen.add(kind)
+    return seen
+
+
+def _overlay_sweep(axes, sweep: xr.Dataset, sigmas, orders, with_phase) -> None:
+    """A sweep's markers over a branch, in the colour of the branch of the same sigma."""
+    if kind_of(sweep) != "sweep":
+        raise HertzsweepError("--overlay: expected a sweep dataset")
+    w = sweep.frequency_ratio.values
+    for s in sweep.sigma.values:
+        match = np.flatnonzero(np.isclose(sigmas, s, rtol=1e-9, atol=0.0))
+        if match.size == 0:
+            continue
+        colour = _colour(int(match[0]))
+        for row, k in enumerate(orders):
+            if k not in sweep.harmonic.values:
+                continue
+            one = sweep.sel(sigma=s, harmonic=k)
+            for direction in one.direction.values:
+                face = colour if direction == "up" else "none"
+                panels = [(axes[row, 0], one.amplitude)]
+                if with_phase:
+                    panels.append((axes[row, 1], one.phase))
+                for ax, values in panels:
+                    ax.plot(
+                        w,
+                        values.sel(direction=direction).values,
+                        ls="none",
+                        marker="o",
+                        ms=MARKER_SIZE,
+                        color=colour,
+                        mfc=face,
+                        mew=0.8,
+                        alpha=0.8,
+                    )
+
+
+# --------------------------------------------------------------------------- trace
+def _scalar(ds: xr.Dataset, name: str, default=np.nan):
+    if name in ds.variables and ds[name].ndim == 0:
+        return ds[name].item()
+    value = ds.attrs.get(name, default)
+    if isinstance(value, np.ndarray) and value.size == 1:
+        return value.item()
+    return value
+
+
+def trace_figure(data: xr.Dataset | Sequence[xr.Dataset], view: str = "both") -> Figure:
+    """Time histories and spectra (Figures 7, 8, 12, 16, 17): one row per sigma of each
+    dataset given (several datasets stack, as Figure 12 stacks three frequencies).
+
+    ``time``: N/F_s against time in ms from the start of the record, flights (out of
+    contact) shaded; ``spectrum``: amplitude of N/F_s against the harmonic order k w;
+    ``both``: the two side by side.
+    """
+    datasets = [data] if isinstance(data, xr.Dataset) else list(data)
+    rows = [(ds, i) for ds in datasets for i in range(ds.sizes["sigma"])]
+    if not rows:
+        raise HertzsweepError("no trace to draw (empty sigma dimension)")
+    columns = {"both": 2, "time": 1, "spectrum": 1}[view]
+    width = {"both": 13.0, "time": 10.0, "spectrum": 7.0}[view]
+    fig = _new_figure(width, 0.9 + 2.6 * len(rows))
+    axes = fig.subplots(
+        len(rows),
+        columns,
+        squeeze=False,
+        width_ratios=[2.6, 1.0] if view == "both" else None,
+    )
+    for r, (ds, i) in enumerate(rows):
+        one = ds.isel(sigma=i)
+        title = _trace_title(ds, one)
+        c = 0
+        if view in ("both", "time"):
+            _time_panel(axes[r, 0], one)
+            axes[r, 0].set_title(title, fontsize="medium", loc="left")
+            c = 1
+        if view in ("both", "spectrum"):
+            _spectrum_panel(axes[r, c], one, ds.attrs)
+            if view == "spectrum":
+                axes[r, c].set_title(title, fontsize="medium", loc="left")
+    fig.suptitle(_title(datasets[0], "Steady-state normal force"), fontsize="medium")
+    return fig
+
+
+def _trace_title(ds: xr.Dataset, one: xr.Dataset) -> str:
+    w = float(_scalar(ds, "frequency_ratio"))
+    f0 = _f0(ds)
+    branch = _scalar(ds, "branch", "")
+    text = rf"{_sigma_label(float(one.sigma))}, $\varpi$ = {w:.4g} ({w * f0:.1f} Hz)"
+    if branch:
+        text += f", {branch} branch"
+    if "contact_loss_fraction" in one:
+        text += f": out of contact {100.0 * float(one.contact_loss_fraction):.0f} %"
+    if "flight_time" in one and float(one.flight_time) > 0:
+        text += f", longest flight {1e3 * float(one.flight_time):.2f} ms"
+    return text
+
+
+def _time_panel(ax, one: xr.Dataset) -> None:
+    t_ms = 1e3 * (one.time.values - one.time.values[0])
+    force = one.normal_force.values
+    flying = one.in_contact.values == 0
+    if np.any(flying):
+        ax.fill_between(
+            t_ms,
+            0.0,
+            1.0,
+            where=flying,
+            step="mid",
+            color="0.85",
+            lw=0,
+            transform=ax.get_xaxis_transform(),
+            label="out of contact",
+        )
+    ax.plot(t_ms, force, color="k", lw=1.0)
+    ax.axhline(1.0, color="0.4", lw=0.8, ls="--")
+    ax.axhline(0.0, color="0.4", lw=0.6)
+    ax.set_xlim(t_ms[0], t_ms[-1])
+    ax.set_xlabel("time $t$ [ms]")
+    ax.set_ylabel(FORCE_LABEL)
+    ax.grid(True, lw=0.3)
+    if np.any(flying):
+        ax.legend(fontsize="small", loc="upper right")
+
+
+def _spectrum_panel(ax, one: xr.Dataset, attrs) -> None:
+    order = one.harmonic_order.values
+    amplitude = one.spectrum.values
+    shown = (order > 0) & (order <= SPECTRUM_ORDERS)
+    ax.vlines(order[shown], 0.0, amplitude[shown], color="k", lw=1.6)
+    ax.set_xlim(0.0, SPECTRUM_ORDERS)
+    ax.set_ylim(bottom=0.0)
+    ax.set_xticks(np.arange(0, int(SPECTRUM_ORDERS) + 1))
+    ax.set_xlabel(r"harmonic order $k$ (multiples of $\varpi$) [1]")
+    ax.set_ylabel(r"amplitude of $N/F_s$ [$F_s$]")
+    ax.grid(True, lw=0.3)
+
+
+# --------------------------------------------------------------------------- study
+AXIS_SYMBOLS = {  # grid dimension -> symbol in labels
+    "damping_exponent": "n",
+    "damping_ratio": r"$\zeta$",
+    "damping_law": "law",
+    "sigma": r"$\sigma$",
+    "steps_per_period": "N",
+}
+
+
+def study_jumps(ds: xr.Dataset) -> xr.DataArray:
+    """The downward jump frequency ratio of a study (the up one when only up sweeps ran):
+    ``jump_frequency_ratio`` at direction ``down``."""
+    if "jump_frequency_ratio" not in ds:
+        raise HertzsweepError("study dataset has no 'jump_frequency_ratio' to draw")
+    jump = ds.jump_frequency_ratio
+    if "direction" in jump.dims:
+        directions = [str(d) for d in ds.direction.values]
+        jump = jump.isel(direction=directions.index("down") if "down" in directions else 0)
+    return jump
+
+
+def study_figure(ds: xr.Dataset) -> Figure:
+    """The jump frequency against sigma, one curve per damping law (Figure 15); every
+    other grid dimension also gets its own curve."""
+    jump = study_jumps(ds)
+    direction = str(jump.direction.values) if "direction" in jump.coords else "down"
+    x_dim = "sigma" if "sigma" in jump.dims else jump.dims[0]
+    others = [d for d in jump.dims if d != x_dim]
+    fig = _new_figure(8.5, 6.0)
+    ax = fig.subplots()
+    x = jump[x_dim].values.astype(float)
+    scale = 100.0 if x_dim == "sigma" else 1.0
+    markers = itertools.cycle("osD^vP*X")
+    for i, index in enumerate(itertools.product(*(range(jump.sizes[d]) for d in others))):
+        curve = jump.isel(dict(zip(others, index, strict=True)))
+        label = ", ".join(
+            f"{AXIS_SYMBOLS.get(d, d)} = {_format_value(curve[d].values)}" for d in others
+        )
+        ax.plot(
+            scale * x,
+            curve.values,
+            marker=next(markers),
+            ms=5,
+            lw=1.4,
+            color=_colour(i),
+            label=label or None,
+        )
+    drawn = x[np.any(np.isfinite(jump.transpose(x_dim, ...).values.reshape(x.size, -1)), axis=1)]
+    if drawn.size > 1 and drawn.min() > 0 and drawn.max() / drawn.min() > 10:
+        ax.set_xscale("log")  # levels spread over decades (0.2 % to 8 %)
+        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0, 7.0)))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel(r"input level $\sigma$ [% of $F_s$]" if x_dim == "sigma" else x_dim)
+    ax.set_ylabel(rf"{direction}ward jump frequency ratio $\varpi$ [1]")
+    ax.grid(True, which="both", lw=0.3)
+    _hz_axis(ax, _f0(ds), where="right")
+    if others:
+        ax.legend(fontsize="small", loc="best")
+    failed = ds.case_failed.broadcast_like(jump) == 1 if "case_failed" in ds else False
+    if np.any(np.isnan(jump.values) & ~np.asarray(failed)):
+        ax.text(
+            0.01,
+            0.01,
+            "a missing point: no jump within the swept range",
+            transform=ax.transAxes,
+            fontsize="x-small",
+            color="0.3",
+        )
+    text = f"{direction.capitalize()}ward jump frequency against input level"
+    fig.suptitle(_title(ds, text), fontsize="medium")
+    return fig
+
+
+def _format_value(value) -> str:
+    value = np.asarray(value).item()
+    return f"{value:g}" if isinstance(value, int | float) else str(value)
+
+
+# --------------------------------------------------------------------------- accuracy
+ERROR_VARIABLES = {  # variable -> (label, marker)
+    "error_h1": ("$H_1$", "o"),
+    "error_h2": ("$H_2$", "s"),
+    "error_force": ("force extremes", "^"),
+    "error_jump": ("jump frequencies", "D"),
+}
+
+
+def accuracy_figure(ds: xr.Dataset) -> Figure:
+    """Error against cost (integration steps), log-log, one marker per error measure.
+
+    The Pareto front (the settings no other beats in both cost and H1 error, the
+    dataset's ``pareto`` flag) is the line through their H1 errors; the reference (zero
+    error, off a log axis) is a vertical line at its cost; the target and the
+    recommended setting are drawn when the dataset has them.
+    """
+    fig = _new_figure(9.0, 6.5)
+    ax = fig.subplots()
+    cost = ds.cost_steps.values.astype(float)
+    names = [n for n in ERROR_VARIABLES if n in ds]
+    if "error_h1" not in names:
+        raise HertzsweepError("accuracy dataset has no 'error_h1' to draw")
+    labels = [str(v) for v in ds.setting_label.values] if "setting_label" in ds else None
+    for i, name in enumerate(names):
+        error = ds[name].values.astype(float)
+        label, marker = ERROR_VARIABLES[name]
+        ax.plot(
+            cost,
+            np.where(error > 0, error, np.nan),
+            ls="none",
+            marker=marker,
+            ms=6,
+            color=_colour(i),
+            mfc="none",
+            label=f"error in {label}",
+        )
+    h1 = ds.error_h1.values.astype(float)
+    h1 = np.where(h1 > 0, h1, np.nan)  # log axes: the reference's zero left out
+    if "pareto" in ds:
+        front = np.flatnonzero(ds.pareto.values == 1)
+        front = front[np.argsort(cost[front])]
+        ax.plot(
+            cost[front],
+            h1[front],
+            color="k",
+            lw=2.0,
+            marker="o",
+            ms=7,
+            label=r"Pareto front (error in $H_1$)",
+        )
+        for j in front:
+            if labels and np.isfinite(h1[j]):
+                ax.annotate(
+                    labels[j],
+                    (cost[j], h1[j]),
+                    fontsize="x-small",
+                    xytext=(4, 4),
+                    textcoords="offset points",
+                )
+    reference = str(ds.attrs.get("reference_label", ""))
+    if labels and reference in labels:
+        ax.axvline(
+            cost[labels.index(reference)],
+            color="0.3",
+            ls=":",
+            lw=1.2,
+            label=f"reference: {reference}",
+        )
+    target = float(ds.attrs.get("target", np.nan))
+    if np.isfinite(target):
+        ax.axhline(target, color="0.3", ls="--", lw=1.0, label=f"target {target:g}")
+    recommended = str(ds.attrs.get("recommended", ""))
+    if labels and recommended in labels:
+        j = labels.index(recommended)
+        ax.plot(
+            [cost[j]],
+            [h1[j]],
+            ls="none",
+            marker="*",
+            ms=16,
+            color="#ff7f0e",
+            mec="k",
+            label=f"recommended: {recommended}",
+        )
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("cost [integration steps]")
+    ax.set_ylabel("error against the reference [1]")
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(fontsize="small", loc="best")
+    order = float(ds.attrs.get("observed_order", np.nan))
+    text = "Accuracy against cost"
+    if np.isfinite(order):
+        text += f", observed order {order:.2f}"
+    fig.suptitle(text, fontsize="medium")
+    return fig
+
+
+__all__ = [
+    "DPI",
+    "KINDS",
+    "VIEWS",
+    "accuracy_figure",
+    "branch_figure",
+    "check_view",
+    "figure",
+    "kind_of",
+    "select_harmonics",
+    "select_sigma",
+    "stability_segments",
+    "study_figure",
+    "study_jumps",
+    "sweep_figure",
+    "trace_figure",
+]

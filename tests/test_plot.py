@@ -1,0 +1,444 @@
+"""`hertzsweep plot`: every dataset kind renders to a figure of the documented size that
+is not blank, drawn as the paper draws it; bad input ends in exit status 2 and one line."""
+
+import os
+import stat
+
+import numpy as np
+import pytest
+import xarray as xr
+from matplotlib.collections import PolyCollection
+from matplotlib.image import imread
+
+from hertzsweep import plot
+from hertzsweep.dataset import attrs, global_attributes, sweep_dataset, write_atomic
+from hertzsweep.errors import HertzsweepError
+from hertzsweep.sweep import run_sweep
+
+from .conftest import make_scene, run_cli
+
+F0 = 230.776  # [Hz] the paper rig's natural frequency (tests/test_rig.py)
+
+# A small sigma = 1 % sweep across the jump (viscous zeta = 0.45 %): 2 x 2 x 13 dwells.
+SMALL_SWEEP = dict(
+    damping={"ratio": 0.0045},
+    excitation={"sigma": [0.006, 0.01]},
+    sweep={"start": 0.96, "stop": 1.02, "step": 0.005, "settle_periods": 150},
+)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return make_scene(**SMALL_SWEEP)
+
+
+@pytest.fixture(scope="module")
+def sweep_ds(scene):
+    return sweep_dataset(run_sweep(scene), scene)
+
+
+def _dataset(scene, kind, data, coords, extra=None):
+    ds = xr.Dataset(
+        {name: (dims, np.asarray(values), _attrs(name)) for name, (dims, values) in data.items()},
+        coords={name: (dims, np.asarray(v), _attrs(name)) for name, (dims, v) in coords.items()},
+        attrs=global_attributes(scene, f"synthetic {kind}", kind, "test"),
+    )
+    ds.attrs.update(extra or {})
+    return ds
+
+
+def _attrs(name):
+    try:
+        return attrs(name)
+    except KeyError:  # a name another module's section adds; long_name is enough here
+        return {"long_name": name.replace("_", " "), "units": "1"}
+
+
+@pytest.fixture(scope="module")
+def trace_ds(scene):
+    """The agreed trace layout: one impacting period-2-flight history at w = 0.6."""
+    samples, periods, w = 256, 4, 0.6
+    tau = np.arange(samples) * (2 * np.pi * periods / w) / samples
+    force = np.maximum(0.0, 1.0 + 4.0 * np.sin(w * tau))
+    force = np.vstack([force, 0.5 + 0.5 * force])
+    contact = (force > 0).astype(np.int8)
+    order = np.arange(samples // 2 + 1) / periods
+    spectrum = np.abs(np.fft.rfft(force, axis=1)) * 2 / samples
+    data = {
+        "displacement": (("sigma", "sample"), force - 1),
+        "velocity": (("sigma", "sample"), np.gradient(force, axis=1)),
+        "normal_force": (("sigma", "sample"), force),
+        "in_contact": (("sigma", "sample"), contact),
+        "spectrum": (("sigma", "harmonic_order"), spectrum),
+        "amplitude": (("sigma", "harmonic"), spectrum[:, [periods, 2 * periods]]),
+        "phase": (("sigma", "harmonic"), np.zeros((2, 2))),
+        "force_max": ("sigma", force.max(axis=1)),
+        "force_min": ("sigma", force.min(axis=1)),
+        "contact_loss_fraction": ("sigma", 1 - contact.mean(axis=1)),
+        "flight_time": ("sigma", [4.1e-3, 0.0]),
+        "flight_start": (("sigma", "flight"), [[1.0, 2.0], [np.nan, np.nan]]),
+        "flight_end": (("sigma", "flight"), [[1.5, 2.5], [np.nan, np.nan]]),
+        "flight_start_time": (("sigma", "flight"), [[1e-3, 2e-3], [np.nan, np.nan]]),
+        "flight_duration": (("sigma", "flight"), [[4e-4, 4e-4], [np.nan, np.nan]]),
+        "frequency_ratio": ((), w),
+    }
+    coords = {
+        "sigma": ("sigma", [0.07, 0.03]),
+        "tau": ("sample", tau),
+        "time": ("sample", tau / (2 * np.pi * F0)),
+        "harmonic": ("harmonic", [1, 2]),
+        "harmonic_order": ("harmonic_order", order),
+        "spectrum_frequency": ("harmonic_order", order * w * F0),
+    }
+    return _dataset(scene, "trace", data, coords, {"frequency_ratio": w, "branch": "upper"})
+
+
+@pytest.fixture(scope="module")
+def branch_ds(scene):
+    """The agreed branch layout: an S-shaped softening curve with two folds, the middle
+    segment unstable, NaN padded along point for the second sigma."""
+    s = np.linspace(0.0, 1.0, 41)
+    w = 0.98 + 0.03 * np.cos(3 * np.pi * s) * (1 - s) - 0.02 * s
+    h1 = 0.2 + 0.8 * s
+    stable = np.ones(s.size, dtype=np.int8)
+    stable[13:24] = 0  # between the folds at points 12 and 24
+    pad = 5
+    freq = np.vstack([w, np.r_[w[:-pad], [np.nan] * pad]])
+    amp = np.stack([np.c_[h1, 0.15 * h1], np.c_[0.5 * h1, 0.07 * h1]])
+    amp[1, -pad:] = np.nan
+    stab = np.vstack([stable, np.r_[stable[:-pad], [-1] * pad]]).astype(np.int8)
+    data = {
+        "frequency_ratio": (("sigma", "point"), freq),
+        "frequency": (("sigma", "point"), freq * F0),
+        "amplitude": (("sigma", "point", "harmonic"), amp),
+        "phase": (("sigma", "point", "harmonic"), 180 * amp / np.nanmax(amp)),
+        "force_max": (("sigma", "point"), 1 + amp[..., 0]),
+        "force_min": (("sigma", "point"), 1 - amp[..., 0]),
+        "contact_loss_fraction": (("sigma", "point"), 0 * freq),
+        "multiplier_real": (("sigma", "point", "multiplier"), np.zeros((2, s.size, 2))),
+        "multiplier_imag": (("sigma", "point", "multiplier"), np.zeros((2, s.size, 2))),
+        "stable": (("sigma", "point"), stab),
+        "arclength": (("sigma", "point"), np.vstack([s, s])),
+        "bifurcation_frequency_ratio": (
+            ("sigma", "bifurcation"),
+            [[w[12], w[24]], [w[12], np.nan]],
+        ),
+        "bifurcation_kind": (("sigma", "bifurcation"), np.array([["fold", "fold"], ["fold", ""]])),
+        "bifurcation_amplitude": (
+            ("sigma", "bifurcation"),
+            [[h1[12], h1[24]], [h1[12] / 2, np.nan]],
+        ),
+    }
+    coords = {"sigma": ("sigma", [0.006, 0.01]), "harmonic": ("harmonic", [1, 2])}
+    return _dataset(scene, "branch", data, coords)
+
+
+@pytest.fixture(scope="module")
+def study_ds(scene):
+    """The agreed study layout: down jumps against sigma for four damping exponents."""
+    sigma = np.array([0.002, 0.01, 0.03, 0.07])
+    n = np.array([0.0, 0.5, 1.0, 1.5])
+    jump = 0.99 - 0.3 * np.sqrt(sigma)[None, :] * (2.0 - n)[:, None]
+    jump[0, 0] = np.nan  # n = 0: no jump at the smallest level
+    data = {
+        "jump_frequency_ratio": (
+            ("direction", "damping_exponent", "sigma"),
+            np.stack([jump + 0.05, jump]),
+        ),
+        "case_failed": (("damping_exponent", "sigma"), np.zeros((4, 4), dtype=np.int8)),
+    }
+    coords = {
+        "direction": ("direction", np.array(["up", "down"], dtype=object)),
+        "damping_exponent": ("damping_exponent", n),
+        "sigma": ("sigma", sigma),
+    }
+    return _dataset(scene, "study", data, coords, {"study_kind": "sweep"})
+
+
+@pytest.fixture(scope="module")
+def accuracy_ds(scene):
+    """The agreed accuracy layout: a second-order ladder of steps per period."""
+    steps = np.array([32, 64, 128, 256, 512, 1024])
+    cost = steps * 1e5
+    h1 = 3.0 / steps.astype(float) ** 2
+    h1[-1] = 0.0  # the reference itself
+    data = {
+        "error_h1": ("setting", h1),
+        "error_h2": ("setting", 2 * h1),
+        "error_force": ("setting", 0.5 * h1),
+        "error_jump": ("setting", np.where(steps < 128, 0.0025, 0.0)),
+        "cost_steps": ("setting", cost),
+        "wall_time": ("setting", cost * 2e-8),
+        "pareto": ("setting", np.array([1, 1, 0, 1, 1, 1], dtype=np.int8)),
+    }
+    coords = {
+        "setting_label": ("setting", np.array([f"N={k}" for k in steps], dtype=object)),
+        "steps_per_period": ("setting", steps),
+    }
+    extra = {
+        "observed_order": 2.01,
+        "reference_label": "N=1024",
+        "recommended": "N=256",
+        "target": 1e-4,
+    }
+    return _dataset(scene, "accuracy", data, coords, extra)
+
+
+def _png(path):
+    """Pixel size and two measures of content: distinct colours, non-white share."""
+    image = imread(path)[..., :3]
+    colours = np.unique((image * 255).astype(np.uint8).reshape(-1, 3), axis=0).shape[0]
+    ink = float(np.mean(np.any(image < 0.95, axis=-1)))
+    return image.shape[1], image.shape[0], colours, ink
+
+
+def _render(ds, tmp_path, capsys, name, *options):
+    source = tmp_path / f"{name}.nc"
+    write_atomic(ds, source)
+    out = tmp_path / f"{name}.png"
+    code, stdout, err = run_cli(["plot", source, "-o", out, *options], capsys)
+    assert code == 0, err
+    assert f"wrote {out}" in stdout
+    return _png(out)
+
+
+# Expected pixel sizes: inches x plot.DPI (100), from the builders' documented sizes.
+@pytest.mark.parametrize(
+    "fixture, options, size",
+    [
+        ("sweep_ds", [], (1100, 740)),  # 2 harmonics, amplitude and phase
+        ("sweep_ds", ["--view", "amplitude", "--harmonic", "1"], (800, 500)),
+        ("sweep_ds", ["--view", "forces", "--sigma", "0.01"], (800, 700)),
+        ("trace_ds", [], (1300, 610)),  # 2 sigma rows, time and spectrum
+        ("trace_ds", ["--view", "time", "--sigma", "0.07"], (1000, 350)),
+        ("branch_ds", [], (1100, 740)),
+        ("study_ds", [], (850, 600)),
+        ("accuracy_ds", [], (900, 650)),
+    ],
+)
+def test_every_kind_renders(fixture, options, size, request, tmp_path, capsys):
+    ds = request.getfixturevalue(fixture)
+    width, height, colours, ink = _render(ds, tmp_path, capsys, fixture, *options)
+    assert (width, height) == size
+    # Not blank: a white page with a frame has 2-3 colours and <1 % ink; every figure
+    # here has labelled axes, several series colours and antialiased markers or lines.
+    assert colours > 50
+    assert ink > 0.03
+
+
+def test_vector_formats(sweep_ds, tmp_path, capsys):
+    source = tmp_path / "s.nc"
+    write_atomic(sweep_ds, source)
+    for suffix, magic in ((".pdf", b"%PDF"), (".svg", b"<?xml")):
+        out = tmp_path / f"s{suffix}"
+        code, _, err = run_cli(["plot", source, "-o", out], capsys)
+        assert code == 0, err
+        assert out.read_bytes().startswith(magic)
+        mask = os.umask(0)
+        os.umask(mask)
+        assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~mask  # as open() makes files
+
+
+@pytest.mark.parametrize(
+    "argv_tail, message",
+    [
+        (["-o", "{tmp}/f.jpg"], "unknown figure extension .jpg"),
+        (["-o", "{tmp}/f"], "unknown figure extension (none)"),
+        (["-o", "{tmp}/f.png", "--view", "spectrum"], "--view: sweep datasets have views"),
+        (["-o", "{tmp}/f.png", "--harmonic", "3"], "--harmonic: 3 not in the dataset"),
+        (["-o", "{tmp}/f.png", "--sigma", "0.02"], "--sigma: 0.02 is not in the dataset"),
+    ],
+)
+def test_bad_options_exit_2(sweep_ds, tmp_path, capsys, argv_tail, message):
+    source = tmp_path / "s.nc"
+    write_atomic(sweep_ds, source)
+    argv = ["plot", source] + [a.format(tmp=tmp_path) for a in argv_tail]
+    code, out, err = run_cli(argv, capsys)
+    assert code == 2
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.nc"]  # no figure, no temporary
+
+
+def test_unknown_kind_exit_2(sweep_ds, tmp_path, capsys):
+    for kind, message in (
+        ("spectrogram", "unknown kind 'spectrogram'"),
+        (None, "no 'hertzsweep_kind' attribute"),
+    ):
+        ds = sweep_ds.copy()
+        if kind is None:
+            del ds.attrs["hertzsweep_kind"]
+        else:
+            ds.attrs["hertzsweep_kind"] = kind
+        source = tmp_path / "odd.nc"
+        write_atomic(ds, source)
+        code, _, err = run_cli(["plot", source, "-o", tmp_path / "odd.png"], capsys)
+        assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+        assert not (tmp_path / "odd.png").exists()
+
+
+def test_not_netcdf_exit_2(tmp_path, capsys):
+    source = tmp_path / "notes.nc"
+    source.write_text("not a dataset\n")
+    code, _, err = run_cli(["plot", source, "-o", tmp_path / "f.png"], capsys)
+    assert code == 2 and "cannot read it as netCDF" in err and len(err.strip().splitlines()) == 1
+
+
+# --------------------------------------------------------------------------- drawn as the paper
+def test_sweep_markers_and_hz_axis(sweep_ds):
+    fig = plot.figure(sweep_ds, harmonics=[1])
+    amplitude_axes = fig.axes[0]
+    lines = [line for line in amplitude_axes.get_lines() if line.get_xdata().size > 1]
+    # one series per sigma and direction: up filled (face = edge colour), down open
+    assert len(lines) == 4
+    faces = [line.get_markerfacecolor() for line in lines]
+    assert sum(face == "none" for face in faces) == 2
+    # the data drawn are the dataset's H1 values
+    up = sweep_ds.amplitude.sel(direction="up", sigma=0.01, harmonic=1).values
+    assert any(np.array_equal(line.get_ydata(), up, equal_nan=True) for line in lines)
+    # a second x axis in Hz: f = w f0 (eq. 15) on the top of the first row
+    secondary = [child for child in amplitude_axes.child_axes]
+    assert secondary and secondary[0].get_xlabel() == plot.HZ_LABEL
+    fig.canvas.draw()  # a secondary axis takes its limits at drawing time
+    lo, hi = amplitude_axes.get_xlim()
+    np.testing.assert_allclose(secondary[0].get_xlim(), (lo * F0, hi * F0), rtol=1e-4)
+
+
+def test_stability_segments():
+    runs = plot.stability_segments(np.array([1, 1, 0, 0, 0, 1, -1, -1], dtype=np.int8))
+    # each run overlaps the next by one point so the curve is unbroken; padding ends it
+    assert runs == [(0, 3, True), (2, 6, False), (5, 6, True)]
+    assert plot.stability_segments(np.array([-1, -1])) == []
+
+
+def test_branch_stable_solid_unstable_dotted_folds(branch_ds):
+    fig = plot.figure(branch_ds, view="amplitude", harmonics=[1])
+    ax = fig.axes[0]
+    curves = [line for line in ax.get_lines() if line.get_xdata().size > 1]
+    styles = {line.get_linestyle() for line in curves}
+    assert styles == {"-", ":"}
+    # stable 0-12, unstable 13-23 (11 points and the next one, to join), stable 24-40
+    dotted = [line for line in curves if line.get_linestyle() == ":"]
+    assert sorted(line.get_xdata().size for line in dotted) == [12, 12]
+    folds = [line for line in ax.get_lines() if line.get_marker() == "D"]
+    assert len(folds) == 3  # two on the first branch, one on the second (one padded)
+    np.testing.assert_allclose(
+        sorted(float(line.get_xdata()[0]) for line in folds),
+        sorted(
+            branch_ds.bifurcation_frequency_ratio.values[
+                ~np.isnan(branch_ds.bifurcation_frequency_ratio.values)
+            ]
+        ),
+    )
+
+
+def test_branch_overlay_sweep(branch_ds, sweep_ds):
+    plain = plot.figure(branch_ds, view="amplitude", harmonics=[1])
+    over = plot.figure(branch_ds, view="amplitude", harmonics=[1], overlay=sweep_ds)
+    # two sigma levels match, each with an up and a down sweep: four marker series more
+    assert len(over.axes[0].get_lines()) - len(plain.axes[0].get_lines()) == 4
+    with pytest.raises(HertzsweepError, match="expected a sweep"):
+        plot.figure(branch_ds, overlay=branch_ds)
+
+
+def test_trace_flights_shaded_and_spectrum(trace_ds):
+    fig = plot.figure(trace_ds)
+    time_axes, spectrum_axes = fig.axes[0], fig.axes[1]
+    shaded = [c for c in time_axes.collections if isinstance(c, PolyCollection)]
+    assert shaded  # sigma = 7 % loses contact
+    force = time_axes.get_lines()[0]
+    t = trace_ds.time.values
+    np.testing.assert_allclose(force.get_xdata(), 1e3 * (t - t[0]))  # ms from the start
+    np.testing.assert_allclose(force.get_ydata(), trace_ds.normal_force.values[0])
+    assert "longest flight 4.10 ms" in time_axes.get_title(loc="left")
+    # the second sigma never loses contact: no shading on its row
+    assert not [c for c in fig.axes[2].collections if isinstance(c, PolyCollection)]
+    assert spectrum_axes.get_xlim() == (0.0, plot.SPECTRUM_ORDERS)
+
+
+def test_trace_figure_stacks_datasets(trace_ds):
+    fig = plot.trace_figure([trace_ds, trace_ds.isel(sigma=[0])], view="time")
+    assert len(fig.axes) == 3 and fig.get_size_inches()[1] == pytest.approx(0.9 + 3 * 2.6)
+
+
+def test_study_one_curve_per_damping_law(study_ds):
+    fig = plot.figure(study_ds)
+    ax = fig.axes[0]
+    curves = ax.get_lines()
+    assert len(curves) == 4
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "n = 0",
+        "n = 0.5",
+        "n = 1",
+        "n = 1.5",
+    ]
+    # the down sweep's jumps against sigma in %, log scale (0.2 % to 7 %)
+    np.testing.assert_allclose(curves[3].get_xdata(), 100 * study_ds.sigma.values)
+    down = study_ds.jump_frequency_ratio.sel(direction="down", damping_exponent=1.5).values
+    np.testing.assert_array_equal(curves[3].get_ydata(), down)
+    # levels drawn over more than a decade: a log axis; over less: linear
+    assert ax.get_xscale() == "log"
+    narrow = study_ds.copy(deep=True)
+    narrow["jump_frequency_ratio"][..., 0] = np.nan  # nothing drawn at 0.2 %: 1 % to 7 %
+    assert plot.figure(narrow).axes[0].get_xscale() == "linear"
+
+
+def test_accuracy_log_log_pareto(accuracy_ds):
+    fig = plot.figure(accuracy_ds)
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    front = [line for line in ax.get_lines() if line.get_label().startswith("Pareto")]
+    assert len(front) == 1
+    cost = accuracy_ds.cost_steps.values
+    np.testing.assert_array_equal(front[0].get_xdata(), cost[accuracy_ds.pareto.values == 1])
+    star = [line for line in ax.get_lines() if line.get_label().startswith("recommended")]
+    assert star and star[0].get_xdata()[0] == cost[3]
+
+
+def test_unknown_view_and_kind_in_library(sweep_ds):
+    with pytest.raises(HertzsweepError, match="views harmonics, amplitude, forces"):
+        plot.figure(sweep_ds, view="time")
+    odd = sweep_ds.copy()
+    odd.attrs["hertzsweep_kind"] = "movie"
+    with pytest.raises(HertzsweepError, match="unknown kind 'movie'"):
+        plot.figure(odd)
+
+
+# --------------------------------------------------------------------------- real datasets
+# The builders take the datasets the feature modules write (not only the synthetic
+# layouts above): small real runs, each drawn and checked for what the paper shows.
+def test_real_trace_flights(tmp_path, monkeypatch):
+    from hertzsweep.dataset import trace_dataset
+    from hertzsweep.trace import run_trace
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))  # FFTW wisdom
+    # Figure 17's case (sigma 7.8 %, zeta 1 %, n = 3/2) reached from 0.95 downwards
+    scene = make_scene(
+        damping={"ratio": 0.01, "law": "contact", "exponent": 1.5},
+        excitation={"sigma": [0.078]},
+        sweep={"start": 0.58, "stop": 0.95, "step": 0.01, "settle_periods": 150},
+    )
+    ds = trace_dataset(run_trace(scene, 0.58, periods=2, branch="upper"), scene)
+    fig = plot.figure(ds)
+    time_axes = fig.axes[0]
+    assert [c for c in time_axes.collections if isinstance(c, PolyCollection)]
+    assert f"out of contact {100 * float(ds.contact_loss_fraction[0]):.0f} %" in (
+        time_axes.get_title(loc="left")
+    )
+    assert float(ds.contact_loss_fraction[0]) > 0.5  # the flights shaded cover most of it
+
+
+def test_real_branch_folds(sweep_ds):
+    from hertzsweep.continuation import run_branch
+    from hertzsweep.dataset import branch_dataset
+
+    scene = make_scene(**SMALL_SWEEP)
+    ds = branch_dataset(run_branch(scene), scene)
+    fig = plot.figure(ds, view="amplitude", harmonics=[1], sigma=[0.01], overlay=sweep_ds)
+    ax = fig.axes[0]
+    curves = [line for line in ax.get_lines() if line.get_linestyle() in ("-", ":")]
+    assert {line.get_linestyle() for line in curves} == {"-", ":"}
+    folds = [line for line in ax.get_lines() if line.get_marker() == "D"]
+    expected = ds.bifurcation_frequency_ratio.sel(sigma=0.01).values[
+        ds.bifurcation_kind.sel(sigma=0.01).values == "fold"
+    ]
+    assert len(folds) == expected.size == 2  # sigma = 1 %: two folds (issue 4)
