@@ -35,10 +35,9 @@ from . import integrators
 from .config import Scene, scene_from_dict
 from .errors import IntegrationError, Interrupted, StabilityError
 from .integrators import NON_FINITE, OK, UNSTABLE, _next, _next_viscous, restart
-from .lockin import amplitude_phase
 from .model import CONTACT_GENERAL, CONTACT_N0, CONTACT_N05, CONTACT_N15, check_stability
 from .model import contact_terms as _contact_terms
-from .oscillator import Oscillator, Reading, _agree, _combine
+from .oscillator import Oscillator, Reading, combine_readings, readings_agree
 from .sweep import Progress, SweepResult, find_jump, run_sweep, sweep_order
 
 _NOT_VISCOUS = -1  # a law code that is not VISCOUS, for the division form of _next
@@ -360,24 +359,10 @@ def _reading(
     ``Oscillator.measure``."""
     total, fmax, fmin, qp_last, q_last, q_prev, q = (float(x) for x in sums)
     loss, longest, lead, trail = (int(x) for x in counts)
-    samples = periods * oscillator.steps_per_period
-    flight_steps = samples if lead == samples else max(longest, lead + trail)
-    coefficients = np.array(coefficients)
-    amplitude, phase = amplitude_phase(coefficients, samples)
-    scale = max(abs(q_last), abs(qp_last), 0.5 * (fmax - fmin), 1e-300)
-    mismatch = max(abs(q - q_last), abs(q_prev - qp_last)) / scale
-    return Reading(
-        amplitude=amplitude,
-        phase=phase,
-        mean_force=1.0 + total / samples,
-        force_max=fmax,
-        force_min=fmin,
-        contact_loss_fraction=loss / samples,
-        flight_tau=flight_steps * h,
-        periodic=bool(mismatch < oscillator.periodic_tolerance),
-        coefficients=coefficients,
-        samples=samples,
-    )
+    return oscillator.reading(
+        periods, h, np.array(coefficients), total, fmax, fmin, loss, longest, lead, trail,
+        qp_last, q_last, q_prev, q,
+    )  # fmt: skip
 
 
 def _failure(scene: Scene, status: int, direction: str, sigma: float, w: float) -> Exception:
@@ -458,8 +443,8 @@ def run_sweep_batched(scene: Scene, progress: Progress | None = None) -> SweepRe
                     reading, settled = readings[0], readings[0].periodic
                 else:
                     head, tail = readings
-                    reading = _combine(head, tail)
-                    settled = _agree(head, tail, scene.sweep.tolerance)
+                    reading = combine_readings(head, tail)
+                    settled = readings_agree(head, tail, scene.sweep.tolerance)
                 result.store(d, s, int(index[t]), reading, settled)
             if progress is not None:
                 progress(count)

@@ -10,7 +10,8 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -619,26 +620,35 @@ def accuracy_dataset(report: Any, scene: Scene, history: str | None = None) -> x
 
 
 # --------------------------------------------------------------------------- files
-def write_atomic(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write netCDF4 to a temporary name in the same folder, then rename: the output is
+@contextmanager
+def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
+    """A temporary name in the folder of ``path``: renamed to ``path`` (with the usual
+    file mode) when the block succeeds, removed when it fails, so the file at ``path`` is
     complete or absent."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
     os.close(fd)
+    tmp = Path(name)
     try:
-        encoding = {
-            name: {"zlib": True, "complevel": 4}
-            for name, var in ds.data_vars.items()
-            if var.dtype.kind == "f" and var.size > 1
-        }
-        ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
+        yield tmp
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a result is a normal file
         os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
-    return path
+
+
+def write_atomic(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+    """Write netCDF4 through :func:`atomic_path`: the output is complete or absent."""
+    encoding = {
+        name: {"zlib": True, "complevel": 4}
+        for name, var in ds.data_vars.items()
+        if var.dtype.kind == "f" and var.size > 1
+    }
+    with atomic_path(path) as tmp:
+        ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
+    return Path(path)
 
 
 def _umask() -> int:

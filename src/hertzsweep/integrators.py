@@ -64,6 +64,19 @@ def _next_viscous(q_prev, q, excess_force, d, sd, h2, damp_prev, inv_viscous):
     return p - (h2 * inv_viscous * d) * sd
 
 
+@njit(cache=True, inline="always")
+def _step(q_prev, q, excess_force, zeta, law, exponent, h2, half_h, damp_prev, inv_viscous):
+    """One step of either form: ``(d, sqrt(d), R(q) - 1, c(q), q[n+1])``."""
+    if law == VISCOUS:
+        d = 1.0 + q * (2.0 / 3.0)
+        sd = math.sqrt(d) if d > 0.0 else 0.0
+        q_next = _next_viscous(q_prev, q, excess_force, d, sd, h2, damp_prev, inv_viscous)
+        return d, sd, d * sd - 1.0, 2.0 * zeta, q_next
+    d, sd, rm1, c = contact_terms(q, zeta, law, exponent)
+    q_next = _next(q_prev, q, excess_force, rm1, c, h2, half_h, law, inv_viscous)
+    return d, sd, rm1, c, q_next
+
+
 @njit(cache=True)
 def advance(q_prev, q, h, sigma, sin_table, periods, zeta, law, exponent):
     """Integrate whole periods without measuring. Returns ``(q_prev, q, status)``."""
@@ -73,20 +86,12 @@ def advance(q_prev, q, h, sigma, sin_table, periods, zeta, law, exponent):
     inv_viscous = 1.0 / (1.0 + 2.0 * zeta * half_h)
     limit = 4.0 / h2  # h^2 omega^2 < 4, omega^2 = sqrt(d)
     damp_prev = 1.0 - 2.0 * zeta * half_h
-    viscous = law == VISCOUS
     for _ in range(periods):
         for j in range(n):
-            if viscous:
-                d = 1.0 + q * (2.0 / 3.0)
-                sd = math.sqrt(d) if d > 0.0 else 0.0
-                q_next = _next_viscous(
-                    q_prev, q, sigma * sin_table[j], d, sd, h2, damp_prev, inv_viscous
-                )
-            else:
-                d, sd, rm1, c = contact_terms(q, zeta, law, exponent)
-                q_next = _next(
-                    q_prev, q, sigma * sin_table[j], rm1, c, h2, half_h, law, inv_viscous
-                )
+            d, sd, rm1, c, q_next = _step(
+                q_prev, q, sigma * sin_table[j], zeta, law, exponent, h2, half_h, damp_prev,
+                inv_viscous,
+            )  # fmt: skip
             if sd >= limit:
                 return q_prev, q, UNSTABLE
             q_prev = q
@@ -141,7 +146,6 @@ def measure(
     half_h = 0.5 * h
     inv_viscous = 1.0 / (1.0 + 2.0 * zeta * half_h)
     damp_prev = 1.0 - 2.0 * zeta * half_h
-    viscous = law == VISCOUS
     inv_2h = 1.0 / (2.0 * h)
     limit = 4.0 / h2
     index = np.zeros(n_harm, dtype=np.int64)
@@ -164,19 +168,10 @@ def measure(
         for i in range(n_harm):
             index[i] = 0
         for j in range(n):
-            if viscous:
-                d = 1.0 + q * (2.0 / 3.0)
-                sd = math.sqrt(d) if d > 0.0 else 0.0
-                rm1 = d * sd - 1.0
-                c = 2.0 * zeta
-                q_next = _next_viscous(
-                    q_prev, q, sigma * sin_table[j], d, sd, h2, damp_prev, inv_viscous
-                )
-            else:
-                d, sd, rm1, c = contact_terms(q, zeta, law, exponent)
-                q_next = _next(
-                    q_prev, q, sigma * sin_table[j], rm1, c, h2, half_h, law, inv_viscous
-                )
+            d, sd, rm1, c, q_next = _step(
+                q_prev, q, sigma * sin_table[j], zeta, law, exponent, h2, half_h, damp_prev,
+                inv_viscous,
+            )  # fmt: skip
             if sd >= limit:
                 status = UNSTABLE
                 break

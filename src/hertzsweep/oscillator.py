@@ -161,27 +161,35 @@ class Oscillator:
         (q_prev, q, status, total, fmax, fmin, loss, longest, lead, trail, qp_last, q_last) = out
         self.steps += periods * self.steps_per_period
         self._check(status, frequency_ratio)
+        reading = self.reading(
+            periods, state.h, coefficients, total, fmax, fmin, loss, longest, lead, trail,
+            qp_last, q_last, q_prev, q,
+        )  # fmt: skip
+        return State(q_prev, q, state.h), reading
+
+    def reading(
+        self, periods, h, coefficients, total, force_max, force_min, loss, longest, lead,
+        trail, q_prev_last, q_last, q_prev, q,
+    ) -> Reading:  # fmt: skip
+        """The :class:`Reading` of one measured block from the kernel's sums (see
+        :func:`integrators.measure` for the arguments); shared by the batched kernels."""
         samples = periods * self.steps_per_period
-        if lead == samples:
-            flight_steps = samples
-        else:
-            flight_steps = max(longest, lead + trail)
+        flight_steps = samples if lead == samples else max(longest, lead + trail)
         amplitude, phase = amplitude_phase(coefficients, samples)
-        scale = max(abs(q_last), abs(qp_last), 0.5 * (fmax - fmin), 1e-300)
-        mismatch = max(abs(q - q_last), abs(q_prev - qp_last)) / scale
-        reading = Reading(
+        scale = max(abs(q_last), abs(q_prev_last), 0.5 * (force_max - force_min), 1e-300)
+        mismatch = max(abs(q - q_last), abs(q_prev - q_prev_last)) / scale
+        return Reading(
             amplitude=amplitude,
             phase=phase,
             mean_force=1.0 + total / samples,
-            force_max=fmax,
-            force_min=fmin,
+            force_max=force_max,
+            force_min=force_min,
             contact_loss_fraction=loss / samples,
-            flight_tau=flight_steps * state.h,
+            flight_tau=flight_steps * h,
             periodic=bool(mismatch < self.periodic_tolerance),
             coefficients=coefficients,
             samples=samples,
         )
-        return State(q_prev, q, state.h), reading
 
     def dwell(self, state: State, frequency_ratio: float) -> tuple[State, Reading, bool]:
         """One stepped-sine dwell: retune, settle, measure. Returns ``(state, reading,
@@ -204,13 +212,13 @@ class Oscillator:
             first = periods // 2
             state, head = self.measure(state, frequency_ratio, first)
             state, tail = self.measure(state, frequency_ratio, periods - first)
-            return state, _combine(head, tail), _agree(head, tail, sweep.tolerance)
+            return state, combine_readings(head, tail), readings_agree(head, tail, sweep.tolerance)
         block = sweep.measure_periods
         state, previous = self.measure(state, frequency_ratio, block)
         settled_periods = 0
         while True:
             state, reading = self.measure(state, frequency_ratio, block)
-            if _agree(previous, reading, sweep.tolerance):
+            if readings_agree(previous, reading, sweep.tolerance):
                 return state, reading, True
             settled_periods += block
             if settled_periods >= sweep.max_settle_periods:
@@ -218,12 +226,12 @@ class Oscillator:
             previous = reading
 
 
-def _agree(a: Reading, b: Reading, tolerance: float) -> bool:
+def readings_agree(a: Reading, b: Reading, tolerance: float) -> bool:
     va, vb = a.vector(), b.vector()
     return bool(np.linalg.norm(va - vb) <= tolerance * max(np.linalg.norm(vb), 1e-300))
 
 
-def _combine(a: Reading, b: Reading) -> Reading:
+def combine_readings(a: Reading, b: Reading) -> Reading:
     """The reading of two consecutive measured blocks (sums add; extremes combine)."""
     samples = a.samples + b.samples
     coefficients = a.coefficients + b.coefficients

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import click
 import xarray as xr
 from matplotlib.figure import Figure
 
-from ..dataset import open_dataset
+from ..dataset import atomic_path, open_dataset
 from ..errors import HertzsweepError
 from ..plot import VIEWS, figure
 from . import cli
@@ -41,27 +40,12 @@ def read_dataset(path: str | os.PathLike) -> xr.Dataset:
 
 
 def write_figure(fig: Figure, path: str | os.PathLike) -> Path:
-    """Save a figure in the format of its extension, atomically (a temporary file in the
-    same folder, then a rename): the figure file is complete or absent."""
+    """Save a figure in the format of its extension, atomically: complete or absent."""
     path = Path(path)
     fmt = figure_format(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".{fmt}", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path, suffix=f".{fmt}") as tmp:
         fig.savefig(tmp, format=fmt)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp's 0600 -> what open() would have made
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 VIEW_HELP = "; ".join(f"{kind}: {', '.join(views)}" for kind, views in VIEWS.items())
