@@ -46,6 +46,20 @@ _COUNTS = 4  # per block: loss_steps, longest, lead, trail (flight runs, in step
 
 
 # --------------------------------------------------------------------------- kernels
+@njit(cache=True, inline="always")
+def _select_terms(q, twozeta, by_contact, by_root, times_root):
+    """``(d, sqrt(d), R - 1, c)`` of the contact laws n = 0, 1/2, 1, 3/2 with selects in
+    place of branches (vectorisable across trajectories): ``c = 2 zeta m1 m2`` with
+    ``m1`` in {H(d), sqrt(d), d} and ``m2`` in {1, sqrt(d)}."""
+    d = 1.0 + q * (2.0 / 3.0)
+    compression = d if d > 0.0 else 0.0
+    sd = math.sqrt(compression)
+    contact = 1.0 if d > 0.0 else 0.0
+    m1 = contact if by_contact else (sd if by_root else compression)
+    m2 = sd if times_root else 1.0
+    return d, sd, compression * sd - 1.0, twozeta * m1 * m2
+
+
 @njit(cache=True, error_model="numpy")
 def _advance_viscous(q_prev, q, h2, damp_prev, inv_viscous, peak, sigma, sin_table, periods):
     """Whole periods, viscous law: the update of ``integrators._next_viscous``."""
@@ -82,14 +96,7 @@ def _advance_contact(q_prev, q, h2, half_h, peak, sigma, sin_table, periods, zet
             s = sin_table[j]
             for t in range(trajectories):
                 qt = q[t]
-                d = 1.0 + qt * (2.0 / 3.0)
-                compression = d if d > 0.0 else 0.0
-                sd = math.sqrt(compression)
-                rm1 = compression * sd - 1.0
-                contact = 1.0 if d > 0.0 else 0.0
-                m1 = contact if by_contact else (sd if by_root else compression)
-                m2 = sd if times_root else 1.0
-                c = twozeta * m1 * m2
+                d, sd, rm1, c = _select_terms(qt, twozeta, by_contact, by_root, times_root)
                 peak[t] = sd if sd > peak[t] else peak[t]
                 q_next = _next(
                     q_prev[t], qt, sigma[t] * s, rm1, c, h2[t], half_h[t], _NOT_VISCOUS, 0.0
@@ -258,14 +265,7 @@ def measure_batch(
                     if general:
                         d, sd, rm1, c = _contact_terms(qt, zeta, CONTACT_GENERAL, exponent)
                     else:
-                        d = 1.0 + qt * (2.0 / 3.0)
-                        compression = d if d > 0.0 else 0.0
-                        sd = math.sqrt(compression)
-                        rm1 = compression * sd - 1.0
-                        contact = 1.0 if d > 0.0 else 0.0
-                        m1 = contact if by_contact else (sd if by_root else compression)
-                        m2 = sd if times_root else 1.0
-                        c = twozeta * m1 * m2
+                        d, sd, rm1, c = _select_terms(qt, twozeta, by_contact, by_root, times_root)
                     q_next = _next(
                         q_prev[t], qt, sigma[t] * s, rm1, c, h2[t], half_h[t], _NOT_VISCOUS, 0.0
                     )
