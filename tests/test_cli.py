@@ -105,8 +105,9 @@ def test_sigterm_keeps_finished_sweeps(tmp_path):
     ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     partial = tmp_path / "long.partial.nc"
-    # one sweep (1501 dwells of 320 periods, 1.2e8 steps) takes 2 s on a quiet machine
-    time.sleep(6.0)
+    # one sweep (1501 dwells of 320 periods, 1.2e8 steps) takes about 1.5 s on a quiet
+    # machine, all sixteen at least 18 s: at 10 s some but not all have finished
+    time.sleep(10.0)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 128 + signal.SIGTERM
