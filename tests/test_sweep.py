@@ -183,3 +183,23 @@ def test_auto_settling_and_its_cap():
         )
     )
     assert not np.any(capped.settled)  # 1e-12 cannot be met within 40 periods
+
+
+def test_non_finite_state_is_an_error_not_a_result():
+    # A state far out of contact (d < 0: no restoring force, no stiffness, so the
+    # stability guard stays quiet) that overflows within a period: the kernels report it
+    # and the oscillator raises, for advancing and for measuring alike.
+    from hertzsweep.errors import IntegrationError
+    from hertzsweep.oscillator import State
+
+    scene = make_scene(damping={"law": "contact"}, excitation={"sigma": [0.01]})
+    osc = Oscillator(scene, 0.01)
+    h = osc.step(1.0)
+    runaway = State(q_prev=0.0, q=-1e306, h=h)  # doubles each step: -inf, then NaN
+    with pytest.raises(IntegrationError, match="non-finite at sigma = 0.01, w = 1"):
+        osc.advance(runaway, 1.0, 2)
+    with pytest.raises(IntegrationError, match="non-finite"):
+        osc.measure(runaway, 1.0, 2)
+    q_prev, q, status = integrators.advance(0.0, -1e306, h, 0.01, osc.sin_table, 1, osc.zeta,
+                                            osc.law, osc.exponent)  # fmt: skip
+    assert status == integrators.NON_FINITE and not np.isfinite(q)
