@@ -425,10 +425,17 @@ def load_raw_scene(path: str | Path) -> dict[str, Any]:
 def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> Scene:
     """Read, override and validate a scene file (or a rig file, which gets defaults)."""
     raw = load_raw_scene(path)
+    overridden = set()
     for text in overrides:
         key, value = parse_override(text)
         apply_override(raw, key, value)
-    return scene_from_dict(raw, source=str(path))
+        overridden.add(key)
+    try:
+        return scene_from_dict(raw, source=str(path))
+    except ConfigError as exc:
+        if exc.key in overridden:  # the bad value came from the command line
+            raise ConfigError("--set", exc.key, exc.reason) from None
+        raise
 
 
 def load_rig(path: str | Path) -> RigConfig:
