@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -154,12 +154,6 @@ class Scene:
                 out[name] = value
         out["rig_geometry"] = out.pop("geometry")
         return out
-
-    def with_values(self, **tables: Any) -> Scene:
-        """A copy with whole tables replaced, e.g. ``scene.with_values(solver=...)``."""
-        from dataclasses import replace
-
-        return replace(self, **tables)
 
 
 # --------------------------------------------------------------------------- validation
@@ -444,8 +438,3 @@ def load_rig(path: str | Path) -> RigConfig:
     if "rig" not in raw or not isinstance(raw["rig"], Mapping):
         raise ConfigError(str(path), "rig", "missing: give rig = 'file.toml' or a [rig] table")
     return rig_from_table(str(path), raw["rig"])
-
-
-def field_names(table: str) -> tuple[str, ...]:
-    """The keys of one table, in declaration order (for docs and --help)."""
-    return tuple(f.name for f in fields(CLASSES[table]))

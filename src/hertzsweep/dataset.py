@@ -664,5 +664,6 @@ def open_dataset(path: str | os.PathLike) -> xr.Dataset:
 
 
 def merge_attributes(ds: xr.Dataset, extra: Mapping[str, Any]) -> xr.Dataset:
+    """Add global attributes, converted for netCDF (bools to 0/1, lists to arrays)."""
     ds.attrs.update({k: _netcdf_value(v) for k, v in extra.items()})
     return ds

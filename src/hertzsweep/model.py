@@ -39,15 +39,6 @@ def law_code(damping: DampingConfig) -> int:
 
 
 @njit(cache=True, inline="always")
-def restoring_force(q: float) -> float:
-    """Hertz restoring force ``[H(d) d]^(3/2)`` in units of F_s (eq. 8)."""
-    d = 1.0 + q * (2.0 / 3.0)
-    if d <= 0.0:
-        return 0.0
-    return d * math.sqrt(d)
-
-
-@njit(cache=True, inline="always")
 def contact_terms(q: float, zeta: float, law: int, exponent: float):
     """``(d, sqrt(d), R(q) - 1, c(q))``: compression, its root, excess restoring force
     and damping coefficient ``f_d = c q'`` (eq. 8, 11). ``sqrt(d)`` is ``omega^2``, the
@@ -122,11 +113,6 @@ def stability_limit(scene: Scene) -> float:
     w_min = float(scene.sweep.frequency_ratios.min())
     om = omega_max(max(scene.excitation.sigma), scene.damping.ratio)
     return math.pi * om / w_min
-
-
-def stability_margin(scene: Scene) -> float:
-    """``steps_per_period / stability_limit``: above 1 is stable, the larger the safer."""
-    return scene.solver.steps_per_period / stability_limit(scene)
 
 
 def check_stability(scene: Scene) -> None:

@@ -31,11 +31,6 @@ class State:
     q: float
     h: float
 
-    @property
-    def velocity(self) -> float:
-        """Backward-difference estimate of q' (for display; the scheme keeps the pair)."""
-        return (self.q - self.q_prev) / self.h
-
 
 @dataclass(frozen=True)
 class Reading:
@@ -227,6 +222,8 @@ class Oscillator:
 
 
 def readings_agree(a: Reading, b: Reading, tolerance: float) -> bool:
+    """Two readings agree when their Fourier sums differ by at most ``tolerance`` of
+    the norm of ``b``'s (relative, over the mean and every requested harmonic)."""
     va, vb = a.vector(), b.vector()
     return bool(np.linalg.norm(va - vb) <= tolerance * max(np.linalg.norm(vb), 1e-300))
 
@@ -253,9 +250,4 @@ def combine_readings(a: Reading, b: Reading) -> Reading:
     )
 
 
-def flight_seconds(flight_tau: float | np.ndarray, natural_circular_frequency: float):
-    """tau -> seconds: ``t = tau / Omega`` (eq. 6)."""
-    return np.asarray(flight_tau) / natural_circular_frequency
-
-
-__all__ = ["Oscillator", "Reading", "State", "flight_seconds"]
+__all__ = ["Oscillator", "Reading", "State", "combine_readings", "readings_agree"]

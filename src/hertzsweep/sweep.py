@@ -9,7 +9,7 @@ excitation changes frequency at a period boundary (phase 0), so its phase is con
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -45,7 +45,6 @@ class SweepResult:
     jump_frequency_ratio: np.ndarray
     finished: np.ndarray  # (direction, sigma): that sweep ran to its end
     steps: int = 0
-    extra: dict = field(default_factory=dict)
 
     @classmethod
     def empty(cls, scene: Scene) -> SweepResult:
