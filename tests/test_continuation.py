@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hertzsweep.accuracy import linear_response
 from hertzsweep.config import load_scene
 from hertzsweep.continuation import MAX_STEP, continue_branch, run_branch, start_end
 from hertzsweep.dataset import branch_dataset, open_dataset
@@ -16,7 +17,7 @@ from hertzsweep.sweep import run_sweep
 
 from .conftest import CONFIGS, make_scene, run_cli
 
-LOCATED = 1e-6  # the issue's requirement on the location of a bifurcation in w
+LOCATED = 1e-6  # required accuracy in w of a located bifurcation
 
 
 def _segments(stable: np.ndarray) -> list[tuple[int, int, bool]]:
@@ -39,21 +40,6 @@ def linear():
     return {n: branch(n) for n in (256, 512)}
 
 
-def _continuous_force(w, sigma, zeta):
-    """H1 of N/F_s = q + 2 zeta q' of q'' + 2 zeta q' + q = sigma sin(w tau): the
-    transmissibility sigma (1 + 2 i zeta w) / (1 - w^2 + 2 i zeta w)."""
-    return sigma * (1.0 + 2j * zeta * w) / (1.0 - w**2 + 2j * zeta * w)
-
-
-def _discrete_force(w, sigma, zeta, n):
-    """The same for the linear central-difference scheme (exact steady state of the
-    recurrence): q[j] = Im(Z e^(i theta j)), theta = 2 pi / N, h = theta / w."""
-    theta = 2.0 * np.pi / n
-    h = theta / w
-    z = h * h * sigma / (2.0 * np.cos(theta) - 2.0 + h * h + 2j * zeta * h * np.sin(theta))
-    return z * (1.0 + 2j * zeta * np.sin(theta) / h)
-
-
 def test_linear_branch_is_one_stable_curve(linear):
     scene, branch = linear[256]
     assert branch.complete and not branch.bifurcations
@@ -63,7 +49,8 @@ def test_linear_branch_is_one_stable_curve(linear):
 
 
 def test_linear_branch_matches_the_analytic_response(linear):
-    """sigma = 1e-4: H1 (complex: amplitude and phase) against the linear oscillator.
+    """sigma = 1e-4: H1 (complex: amplitude and phase) against the linear oscillator
+    (:func:`hertzsweep.accuracy.linear_response`, continuous and of the scheme).
 
     Against the continuous response the error is the scheme's: its natural frequency is
     1 + h^2/24 + O(h^4) (2.5e-5 at N = 256), which moves the response by about
@@ -78,9 +65,9 @@ def test_linear_branch_matches_the_analytic_response(linear):
         w = branch.frequency_ratio
         h1 = complex_amplitude(branch.amplitude[:, 0], branch.phase[:, 0])
         zeta = scene.damping.ratio
-        exact = _continuous_force(w, 1e-4, zeta)
+        exact = 1e-4 * linear_response(w, zeta)
         errors[n] = np.max(np.abs(h1 - exact) / np.abs(exact))
-        discrete = _discrete_force(w, 1e-4, zeta, n)
+        discrete = 1e-4 * linear_response(w, zeta, n)
         assert np.max(np.abs(h1 - discrete) / np.abs(discrete)) < 2e-3
     assert errors[256] < 1e-2
     assert errors[256] / errors[512] > 2.0

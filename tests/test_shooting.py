@@ -77,6 +77,8 @@ def test_orbit_is_the_state_of_a_long_settled_run(tables, w):
     assert orbit.converged and orbit.stable
     # 4000 periods: the transient decays by |mu|^4000 < 0.94^4000 ~ 1e-107
     settled = oscillator.advance(oscillator.rest(w), w, 4000)
+    # the fixed point is off by at most the last Newton residual (< 1e-10 of Q) over
+    # 1 - |mu| (> 0.06), times Q (< 4): 7e-9 (measured 2e-12)
     assert abs(settled.q - orbit.state.q) < 1e-8
     assert abs(settled.q_prev - orbit.state.q_prev) < 1e-8
     _, reading = oscillator.measure(orbit.state, w, 1)

@@ -7,8 +7,8 @@ scene that differ in one setting each:
 - settling at the scene's N: fixed 50, 100, 300, 1000 periods, and ``"auto"`` with
   tolerance 1e-2 .. 1e-6;
 - the steady state by shooting (``sweep.steady_state = "shooting"``) at each N of the
-  steps axis, when :mod:`hertzsweep.shooting` is installed: Newton finds the periodic
-  orbit of the discrete scheme itself, so these rungs carry no settling error;
+  steps axis: Newton finds the periodic orbit of the discrete scheme itself, so these
+  rungs carry no settling error;
 - the *reference*: the largest N with the longest fixed settling, and its Richardson
   partner at N/2 with the same settling.
 
@@ -178,21 +178,12 @@ def parse_settle_list(
     return tuple(parse_settle(item, source) for item in text.split(","))
 
 
-def shooting_available() -> bool:
-    """Whether ``sweep.steady_state = "shooting"`` can run here."""
-    try:
-        import hertzsweep.shooting  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 @dataclass(frozen=True)
 class Ladder:
     """The settings to run, the reference and its Richardson partner.
 
     ``settings`` holds every rung once, reference last; ``notes`` says what was left out
-    and why (below the stability limit, shooting not installed).
+    and why (at or below the stability limit).
     """
 
     settings: tuple[Setting, ...]
@@ -207,7 +198,7 @@ def build_ladder(
     steps: Sequence[int] | None = None,
     settle: Sequence[int | str | tuple[int | None, float | None]] | None = None,
     quick: bool = False,
-    shooting: bool | None = None,
+    shooting: bool = True,
 ) -> Ladder:
     """The ladder of settings for a scene (see the module docstring).
 
@@ -223,9 +214,8 @@ def build_ladder(
         ``(periods, tolerance)`` pairs). The longest fixed one is the reference's.
     quick : bool
         Fewer rungs (:data:`QUICK_STEPS`, :data:`QUICK_SETTLE`).
-    shooting : bool, optional
-        Include the shooting rungs, one per N (default: when :mod:`hertzsweep.shooting`
-        imports).
+    shooting : bool
+        Include the shooting rungs, one per N.
 
     Rungs at or below the scene's stability limit (:func:`hertzsweep.model.stability_limit`)
     are left out with a note; the reference must be above it.
@@ -238,10 +228,6 @@ def build_ladder(
     notes: list[str] = []
     candidates: list[Setting] = [replace(base_settle, steps_per_period=n) for n in steps]
     candidates += [Setting(base.steps_per_period, p, t) for p, t in settles]
-    if shooting is None:
-        shooting = shooting_available()
-        if not shooting:
-            notes.append("shooting rungs skipped: hertzsweep.shooting is not installed")
     if shooting:
         candidates += [Setting(n, base.settle_periods, base.tolerance, "shooting") for n in steps]
     if base.steady_state == "settle" or shooting:
@@ -543,7 +529,7 @@ def assess(
     if reference.setting != ladder.reference:
         raise HertzsweepError("the reference rung did not run")
     errors = [sweep_errors(r.result, reference.result) for r in rungs]
-    orders = observed_orders(rungs[:-1]) + [math.nan]
+    orders = observed_orders(rungs)  # the reference can be the 4N of a triple
     scene_axis = (ladder.scene_setting.settle, ladder.scene_setting.steady_state)
     on_axis = [
         (r.setting.steps_per_period, p)
@@ -605,7 +591,7 @@ def measure_accuracy(
     quick: bool = False,
     target: float | None = None,
     progress: Progress | None = None,
-    shooting: bool | None = None,
+    shooting: bool = True,
 ) -> AccuracyReport:
     """Build the ladder, run it and assess it (see :func:`build_ladder`, :func:`assess`)."""
     ladder = build_ladder(scene, steps, settle, quick, shooting)

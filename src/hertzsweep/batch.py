@@ -33,9 +33,16 @@ from numba import njit
 
 from . import integrators
 from .config import Scene, scene_from_dict
-from .errors import IntegrationError, Interrupted, StabilityError
+from .errors import HertzsweepError, Interrupted
 from .integrators import NON_FINITE, OK, UNSTABLE, _next, _next_viscous, restart
-from .model import CONTACT_GENERAL, CONTACT_N0, CONTACT_N05, CONTACT_N15, check_stability
+from .model import (
+    CONTACT_GENERAL,
+    CONTACT_N0,
+    CONTACT_N05,
+    CONTACT_N15,
+    VISCOUS,
+    check_stability,
+)
 from .model import contact_terms as _contact_terms
 from .oscillator import Oscillator, Reading, combine_readings, readings_agree
 from .sweep import Progress, SweepResult, find_jump, run_sweep, sweep_order
@@ -168,7 +175,7 @@ def advance_batch(q_prev, q, h, sigma, sin_table, periods, zeta, law, exponent):
     limit = 4.0 / h2  # h^2 omega^2 < 4, omega^2 = sqrt(d)
     peak = np.zeros_like(q)
     for _ in range(periods):
-        if law == 0:  # VISCOUS
+        if law == VISCOUS:
             _advance_viscous(q_prev, q, h2, damp_prev, inv_viscous, peak, sigma, sin_table, 1)
         elif law == CONTACT_GENERAL:
             _advance_general(q_prev, q, h2, half_h, peak, sigma, sin_table, 1, zeta, exponent)
@@ -214,7 +221,7 @@ def measure_batch(
     inv_2h = 1.0 / (2.0 * h)
     limit = 4.0 / h2
     twozeta = 2.0 * zeta
-    viscous = law == 0
+    viscous = law == VISCOUS
     general = law == CONTACT_GENERAL
     by_contact = law == CONTACT_N0
     by_root = law == CONTACT_N05
@@ -365,16 +372,15 @@ def _reading(
     )  # fmt: skip
 
 
-def _failure(scene: Scene, status: int, direction: str, sigma: float, w: float) -> Exception:
-    """The error ``run_sweep`` raises for that trajectory."""
-    if status == UNSTABLE:
-        message = (
-            f"solver.steps_per_period: {scene.solver.steps_per_period} is beyond the stability "
-            f"limit at the compression reached (sigma = {sigma:g}, w = {w:g}); raise it"
-        )
-        return StabilityError(f"{scene.source}: {direction} sweep: {message}")
-    message = f"the state became non-finite at sigma = {sigma:g}, w = {w:g}"
-    return IntegrationError(f"{scene.source}: {direction} sweep: {message}")
+def _raise_failure(
+    scene: Scene, oscillator: Oscillator, status: int, direction: str, w: float
+) -> None:
+    """Raise the error ``run_sweep`` raises for that trajectory (the oscillator's own
+    check, prefixed as :func:`hertzsweep.sweep.run_direction` prefixes it)."""
+    try:
+        oscillator.check_status(status, w)
+    except HertzsweepError as exc:
+        raise type(exc)(f"{scene.source}: {direction} sweep: {exc}") from None
 
 
 def run_sweep_batched(scene: Scene, progress: Progress | None = None) -> SweepResult:
@@ -431,8 +437,8 @@ def run_sweep_batched(scene: Scene, progress: Progress | None = None) -> SweepRe
                 counts,
             )  # fmt: skip
             if status != OK:
-                d, s = pairs[bad]
-                raise _failure(scene, status, result.directions[d], result.sigma[s], w[index[bad]])
+                direction = result.directions[pairs[bad][0]]
+                _raise_failure(scene, oscillators[bad], status, direction, w[index[bad]])
             for t, (d, s) in enumerate(pairs):
                 readings = [
                     _reading(oscillators[t], int(blocks[b]), h[t], coefficients[b, :, :, t],

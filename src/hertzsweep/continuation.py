@@ -49,7 +49,14 @@ from .config import Scene
 from .errors import ConvergenceError, HertzsweepError
 from .model import check_stability
 from .oscillator import Oscillator, Reading
-from .shooting import Evaluation, PeriodMap, find_orbit, newton, sorted_multipliers
+from .shooting import (
+    STABILITY_MARGIN,
+    Evaluation,
+    PeriodMap,
+    find_orbit,
+    newton,
+    sorted_multipliers,
+)
 
 Progress = Callable[[int], None]
 
@@ -63,7 +70,8 @@ MAX_TURN = 0.15  # [rad] largest angle between consecutive tangents: keeps ~20 p
 # half turn (a fold), resolves the curve for plotting, and keeps two sign changes of a
 # test function from falling into one step
 MAX_STEP = 0.02  # largest step in the scaled coordinates (w, and amplitude over Q)
-FIRST_STEP = 0.005
+FIRST_STEP = 0.005  # first arclength step (scaled coordinates), a quarter of MAX_STEP
+RESTART_STEP = FIRST_STEP * SHRINK**4  # the step after a bridged gap or a reversed tangent
 MIN_STEP = 1e-9  # below this the continuation stops there (end = "stalled")
 CORNER_STEP = 1e-6  # below this step a turn beyond MAX_TURN is accepted: a corner of the
 # branch where a time step crosses the contact boundary and the map is not differentiable
@@ -387,7 +395,7 @@ def continue_branch(
                 bridges += 1
                 kinked = True
                 count = HARD_CORRECTOR
-                ds = FIRST_STEP * SHRINK**4
+                ds = RESTART_STEP
         if new is None:
             ds *= SHRINK
             if ds < MIN_STEP:
@@ -401,7 +409,7 @@ def continue_branch(
             flipped = len(points) - 1
             points[-1] = _Point(point.y, -point.tangent, point.evaluation, point.arclength)
             trace[len(points) - 1, 3:] = -point.tangent
-            ds = FIRST_STEP * SHRINK**4
+            ds = RESTART_STEP
             continue
         w_new = float(new.y[2])
         if w_new < low or w_new > high:  # left the span: end exactly on its edge
@@ -478,29 +486,29 @@ def _assemble(
 ) -> Branch:
     """Insert the located bifurcations among the points, read every point, and report
     each cluster of grazing folds once (:func:`_fold_clusters`)."""
-    ordered: list[tuple[_Point, str | None, int]] = []  # (point, kind, index before)
+    ordered: list[tuple[_Point, str | None]] = []  # (point, bifurcation kind or None)
     by_index: dict[int, list[tuple[str, _Point]]] = {}
     for index, kind, found in located:
         by_index.setdefault(index, []).append((kind, found))
     for i, point in enumerate(points):
-        ordered.append((point, marked.get(i), max(i - 1, 0)))
+        ordered.append((point, marked.get(i)))
         extra = sorted(by_index.get(i, []), key=lambda item: item[1].arclength)
-        ordered.extend((found, kind, i) for kind, found in extra)
+        ordered.extend((found, kind) for kind, found in extra)
     oscillator = run.oscillator
     harmonics = list(oscillator.harmonics)
     h1 = harmonics.index(1) if 1 in harmonics else None
     readings: list[Reading] = []
     multipliers = np.empty((len(ordered), 2), dtype=complex)
-    for i, (point, _, _) in enumerate(ordered):
+    for i, (point, _) in enumerate(ordered):
         w = float(point.y[2])
         _, reading = oscillator.measure(run.period.state(point.y[:2], w), w, 1)
         readings.append(reading)
         multipliers[i] = sorted_multipliers(point.evaluation.monodromy)
-    candidates = [i for i, (_, kind, _) in enumerate(ordered) if kind is not None]
-    kept = _fold_clusters(ordered, readings, points, candidates)
+    candidates = [i for i, (_, kind) in enumerate(ordered) if kind is not None]
+    kept = _fold_clusters(ordered, readings, candidates)
     bifurcations = []
     for i in kept:
-        point, kind, _ = ordered[i]
+        point, kind = ordered[i]
         amplitude = float(readings[i].amplitude[h1]) if h1 is not None else float("nan")
         bifurcations.append(Bifurcation(kind, float(point.y[2]), amplitude, i, multipliers[i]))
 
@@ -510,7 +518,7 @@ def _assemble(
     steps_measured = len(ordered) * oscillator.steps_per_period
     return Branch(
         sigma=oscillator.sigma,
-        frequency_ratio=np.array([p.y[2] for p, _, _ in ordered]),
+        frequency_ratio=np.array([p.y[2] for p, _ in ordered]),
         amplitude=stack("amplitude"),
         phase=stack("phase"),
         mean_force=stack("mean_force"),
@@ -519,8 +527,8 @@ def _assemble(
         contact_loss_fraction=stack("contact_loss_fraction"),
         flight_tau=stack("flight_tau"),
         multipliers=multipliers,
-        stable=np.max(np.abs(multipliers), axis=1) < 1.0,
-        arclength=np.array([p.arclength for p, _, _ in ordered]),
+        stable=np.max(np.abs(multipliers), axis=1) < 1.0 - STABILITY_MARGIN,  # as Orbit.stable
+        arclength=np.array([p.arclength for p, _ in ordered]),
         bifurcations=bifurcations,
         complete=end == "end",
         end=end,
@@ -529,7 +537,9 @@ def _assemble(
     )
 
 
-def _fold_clusters(ordered, readings, points, candidates: list[int]) -> list[int]:
+def _fold_clusters(
+    ordered: list[tuple[_Point, str | None]], readings: list[Reading], candidates: list[int]
+) -> list[int]:
     """The located bifurcations to report, as indices into ``ordered``.
 
     Where the orbit loses contact, time steps grazing ``d = 0`` make the discrete map only
@@ -544,8 +554,8 @@ def _fold_clusters(ordered, readings, points, candidates: list[int]) -> list[int
     is a zigzag and is dropped. Isolated folds and folds in contact are reported as
     located.
     """
-    slope = np.array([abs(point.tangent[2]) for point, _, _ in ordered])
-    w = np.array([point.y[2] for point, _, _ in ordered])
+    slope = np.array([abs(point.tangent[2]) for point, _ in ordered])
+    w = np.array([point.y[2] for point, _ in ordered])
     steep = np.flatnonzero(slope >= FOLD_CLUSTER_SLOPE)
     kept: list[int] = []
     cluster: list[int] = []

@@ -109,7 +109,8 @@ class Oscillator:
         )
         return State(q_prev, state.q, h)
 
-    def _check(self, status: int, frequency_ratio: float) -> None:
+    def check_status(self, status: int, frequency_ratio: float) -> None:
+        """Raise the error a kernel status means (StabilityError, IntegrationError)."""
         if status == integrators.UNSTABLE:
             raise StabilityError(
                 f"solver.steps_per_period: {self.steps_per_period} is beyond the stability "
@@ -131,7 +132,7 @@ class Oscillator:
             self.zeta, self.law, self.exponent,
         )  # fmt: skip
         self.steps += periods * self.steps_per_period
-        self._check(status, frequency_ratio)
+        self.check_status(status, frequency_ratio)
         return State(q_prev, q, state.h)
 
     def measure(
@@ -155,7 +156,7 @@ class Oscillator:
         )  # fmt: skip
         (q_prev, q, status, total, fmax, fmin, loss, longest, lead, trail, qp_last, q_last) = out
         self.steps += periods * self.steps_per_period
-        self._check(status, frequency_ratio)
+        self.check_status(status, frequency_ratio)
         reading = self.reading(
             periods, state.h, coefficients, total, fmax, fmin, loss, longest, lead, trail,
             qp_last, q_last, q_prev, q,

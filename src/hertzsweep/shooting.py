@@ -181,7 +181,7 @@ def newton(
     residuals: list[float] = []
     evaluation = None
     previous = np.inf  # size of the last Newton correction
-    for _ in range(max_iterations + 1):
+    for iteration in range(max_iterations + 1):
         evaluation = period(z, frequency_ratio)
         error = evaluation.error
         residuals.append(error)
@@ -195,6 +195,8 @@ def newton(
                 tuple(residuals),
                 True,
             )
+        if iteration == max_iterations:
+            break  # keep the state whose residual and multipliers were evaluated
         try:
             correction = np.linalg.solve(evaluation.jacobian[:, :2], evaluation.residual)
         except np.linalg.LinAlgError:

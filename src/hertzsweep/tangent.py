@@ -81,7 +81,8 @@ def period_map(q_prev, q, h, sigma, sin_table, zeta, law, exponent, derivative):
         stiffness, dc = contact_derivatives(q, zeta, law, exponent)
         excess = sigma * sin_table[j] - rm1
         inv_den = inv_viscous if law == VISCOUS else 1.0 / (1.0 + c * half_h)
-        # the very update of integrators.advance: P(x) equals one period of it to round-off
+        # the scheme's update in its division form (integrators.advance rearranges the
+        # viscous one): P(x) equals one period of advance to round-off
         q_next = _next(q_prev, q, sigma * sin_table[j], rm1, c, h2, half_h, law, inv_viscous)
         span = q_next - q_prev
         by_prev = -(1.0 - c * half_h) * inv_den
