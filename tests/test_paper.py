@@ -167,6 +167,14 @@ def test_manifest_of_the_paper():
             "run[0].figures.f",
         ),
         ('[[run]]\nname = "a"\nkind = "sweep"\nscene = "s.toml"\noverlay = "b"\n', "a.overlay"),
+        (
+            '[[run]]\nname = "a"\nkind = "trace"\nscene = "s.toml"\nperiods = "8"\n',
+            "run[0].periods",
+        ),
+        (
+            '[[run]]\nname = "a"\nkind = "sweep"\nscene = "s.toml"\nset = "sweep.step=0.01"\n',
+            "run[0].set",
+        ),
     ],
 )
 def test_manifest_errors_name_the_key(tmp_path, text, key):
@@ -200,8 +208,7 @@ def test_make_paper_quick(tmp_path, capsys, monkeypatch):
     rows = _rows(table[table.index("| quantity") : table.index("## Runs")])
     assert list(rows) == [r.quantity for r in paper.PAPER.values()]
     number = re.compile(r"^[-+]?\d+(\.\d+)?(e\d+)?\b")
-    sweep_rows = [r for k, r in zip(paper.PAPER, rows.values(), strict=True)]
-    for cells in sweep_rows:  # the rig and the sweeps always run: every row has our number
+    for cells in rows.values():  # the rig and the sweeps always run: every row has our number
         assert number.match(cells[3]), cells
     by_key = dict(zip(paper.PAPER, rows.values(), strict=True))
     assert by_key["z_s"][5] == AGREE and by_key["p0"][5] == AGREE

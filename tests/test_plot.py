@@ -276,6 +276,14 @@ def test_unknown_kind_exit_2(sweep_ds, tmp_path, capsys):
         assert not (tmp_path / "odd.png").exists()
 
 
+def test_incomplete_dataset_exit_2(sweep_ds, tmp_path, capsys):
+    source = tmp_path / "partial.nc"
+    write_atomic(sweep_ds.drop_vars("amplitude"), source)
+    code, _, err = run_cli(["plot", source, "-o", tmp_path / "f.png"], capsys)
+    assert code == 2 and "not a complete sweep dataset" in err and "amplitude" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "f.png").exists()
+
+
 def test_not_netcdf_exit_2(tmp_path, capsys):
     source = tmp_path / "notes.nc"
     source.write_text("not a dataset\n")
@@ -300,6 +308,7 @@ def test_sweep_markers_and_hz_axis(sweep_ds):
     assert secondary and secondary[0].get_xlabel() == plot.HZ_LABEL
     fig.canvas.draw()  # a secondary axis takes its limits at drawing time
     lo, hi = amplitude_axes.get_xlim()
+    # F0 above is the rig's f0 rounded to 6 digits (1e-6 relative): 1e-4 covers it
     np.testing.assert_allclose(secondary[0].get_xlim(), (lo * F0, hi * F0), rtol=1e-4)
 
 
@@ -441,4 +450,4 @@ def test_real_branch_folds(sweep_ds):
     expected = ds.bifurcation_frequency_ratio.sel(sigma=0.01).values[
         ds.bifurcation_kind.sel(sigma=0.01).values == "fold"
     ]
-    assert len(folds) == expected.size == 2  # sigma = 1 %: two folds (issue 4)
+    assert len(folds) == expected.size == 2  # sigma = 1 %: the two folds of the hysteresis

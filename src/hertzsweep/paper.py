@@ -19,6 +19,7 @@ import copy
 import importlib.util
 import math
 import shutil
+import signal
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -33,8 +34,8 @@ import xarray as xr
 
 from . import plot
 from .config import ExcitationConfig, Scene, load_rig, load_scene, read_toml
-from .dataset import history_line, sweep_dataset, write_atomic
-from .errors import ConfigError, HertzsweepError
+from .dataset import atomic_path, history_line, sweep_dataset, write_atomic
+from .errors import ConfigError, HertzsweepError, Interrupted
 from .rig import RigConstants, derive
 from .sweep import run_sweep
 
@@ -383,7 +384,20 @@ def read_manifest(config_dir: str | Path, quick: bool = False) -> list[Run]:
         source = config_dir / str(entry.get(file_key, ""))
         if not source.is_file():
             raise ConfigError(str(path), f"{where}.{file_key}", f"no such file {str(source)!r}")
+        for key in ("set", "quick"):
+            items = entry.get(key, [])
+            if not isinstance(items, list) or not all(isinstance(i, str) for i in items):
+                raise ConfigError(
+                    str(path),
+                    f"{where}.{key}",
+                    f"expected a list of 'table.key=value', got {items!r}",
+                )
         overrides = tuple(entry.get("set", ())) + (tuple(entry.get("quick", ())) if quick else ())
+        periods = entry.get("periods", 8)
+        if isinstance(periods, bool) or not isinstance(periods, int) or periods < 1:
+            raise ConfigError(
+                str(path), f"{where}.periods", f"expected a whole number >= 1, got {periods!r}"
+            )
         figures = entry.get("figures", {})
         for figure, options in figures.items():
             unknown = set(options) - set(FIGURE_KEYS)
@@ -407,7 +421,7 @@ def read_manifest(config_dir: str | Path, quick: bool = False) -> list[Run]:
                 source=source,
                 overrides=overrides,
                 frequency=frequency,
-                periods=int(entry.get("periods", 8)),
+                periods=periods,
                 overlay=entry.get("overlay"),
                 figures=dict(figures),
             )
@@ -430,7 +444,7 @@ def missing_feature(kind: str) -> str | None:
     module = importlib.import_module(module_name)
     if not hasattr(module, driver):
         return f"{module_name}.{driver} is not available"
-    if builder is not None and not hasattr(dataset, builder):
+    if not hasattr(dataset, builder):
         return f"hertzsweep.dataset.{builder} is not available"
     return None
 
@@ -602,9 +616,8 @@ def run_paper(
     result.ours = measurements(result.datasets, constants)
     result.wall_time = time.perf_counter() - start
     path = out_dir / "validation.md"
-    temporary = out_dir / ".validation.md.tmp"
-    temporary.write_text(validation_report(result, quick))
-    temporary.replace(path)  # complete or absent
+    with atomic_path(path) as temporary:
+        temporary.write_text(validation_report(result, quick))
     result.files.append(path)
     echo(f"validation table -> {path} ({result.wall_time:.0f} s in all)")
     return result
@@ -646,8 +659,15 @@ def command(config_dir: str, out_dir: str, quick: bool) -> None:
     run_paper(config_dir, out_dir, quick, echo=click.echo)
 
 
+def _terminate(signal_number: int, frame: object) -> None:
+    """SIGTERM ends a run like SIGINT: files being written are removed, finished ones stay."""
+    raise Interrupted(None, signal_number)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
-    """Entry point; a user error ends in one line on stderr and exit status 2."""
+    """Entry point; a user error ends in one line on stderr and exit status 2, an
+    interruption (SIGINT, SIGTERM) in one line and 128 + the signal number."""
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         command.main(args=list(argv) if argv is not None else None, standalone_mode=False)
     except click.ClickException as exc:
@@ -656,6 +676,15 @@ def main(argv: Sequence[str] | None = None) -> None:
     except HertzsweepError as exc:
         click.echo(f"hertzsweep.paper: error: {exc}", err=True)
         sys.exit(2)
+    except OSError as exc:  # an output folder that cannot be written, ...
+        reason = f"{exc.filename}: {exc.strerror}" if exc.filename and exc.strerror else exc
+        click.echo(f"hertzsweep.paper: error: {reason}", err=True)
+        sys.exit(2)
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:  # click wraps them in Abort
+        cause = exc.__cause__ if isinstance(exc, click.exceptions.Abort) else exc
+        number = cause.signal_number if isinstance(cause, Interrupted) else signal.SIGINT
+        click.echo("hertzsweep.paper: error: interrupted", err=True)
+        sys.exit(128 + number)
 
 
 if __name__ == "__main__":

@@ -546,7 +546,7 @@ def trace_figure(data: xr.Dataset | Sequence[xr.Dataset], view: str = "both") ->
             axes[r, 0].set_title(title, fontsize="medium", loc="left")
             c = 1
         if view in ("both", "spectrum"):
-            _spectrum_panel(axes[r, c], one, ds.attrs)
+            _spectrum_panel(axes[r, c], one)
             if view == "spectrum":
                 axes[r, c].set_title(title, fontsize="medium", loc="left")
     fig.suptitle(_title(datasets[0], "Steady-state normal force"), fontsize="medium")
@@ -594,7 +594,7 @@ def _time_panel(ax, one: xr.Dataset) -> None:
         ax.legend(fontsize="small", loc="upper right")
 
 
-def _spectrum_panel(ax, one: xr.Dataset, attrs) -> None:
+def _spectrum_panel(ax, one: xr.Dataset) -> None:
     order = one.harmonic_order.values
     amplitude = one.spectrum.values
     shown = (order > 0) & (order <= SPECTRUM_ORDERS)

@@ -31,7 +31,6 @@ import itertools
 import json
 import os
 import signal
-import tempfile
 import time
 import traceback
 from collections import deque
@@ -110,7 +109,12 @@ class Case:
     @property
     def label(self) -> str:
         """``damping.exponent=0.5, ...`` (``base`` for the only case of an empty grid)."""
-        return ", ".join(f"{k}={v}" for k, v in self.values.items()) or "base"
+        return grid_label(self.values) or "base"
+
+
+def grid_label(values: dict[str, Any]) -> str:
+    """``key=value, ...`` of a case's grid values (empty for an empty grid)."""
+    return ", ".join(f"{k}={v}" for k, v in values.items())
 
 
 def dimension_name(key: str) -> str:
@@ -221,7 +225,7 @@ def expand(study: Study) -> list[Case]:
             apply_override(raw, SIGMA_KEY, list(sigma.values), source=study.source)
         for key, value in values.items():
             apply_override(raw, key, [value] if key == SIGMA_KEY else value, source=study.source)
-        label = ", ".join(f"{k}={v}" for k, v in values.items())
+        label = grid_label(values)
         scene = scene_from_dict(raw, source=f"{study.source}[{label}]" if label else study.source)
         cases.append(Case(index, values, scene, case_hash(scene, study.kind)))
     return cases
@@ -298,9 +302,7 @@ def _worker_init(driver: int) -> None:
             time.sleep(DRIVER_CHECK_SECONDS)
             try:
                 os.kill(driver, 0)
-            except ProcessLookupError:
-                os._exit(1)
-            except PermissionError:  # the pid now belongs to another user's process
+            except (ProcessLookupError, PermissionError):  # gone, or its pid reused
                 os._exit(1)
 
     threading.Thread(target=watch, name="hertzsweep-driver-watch", daemon=True).start()
@@ -506,16 +508,11 @@ def write_error(folder: Path, study: Study, case: Case, error: dict[str, str]) -
         "config": case.scene.attributes(),
         "error": error,
     }
+    from .dataset import atomic_path
+
     path = error_path(folder, case)
-    folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w") as stream:
-            json.dump(record, stream, indent=2, default=_json_default)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(record, indent=2, default=_json_default))
     part_path(folder, case).unlink(missing_ok=True)
     return path
 

@@ -18,7 +18,7 @@ lock-in, every ``stride``-th step (``stride = steps_per_period / samples_per_per
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -101,7 +101,6 @@ class TraceResult:
     approach: np.ndarray
     spectrum_backend: str
     steps: int = 0
-    extra: dict = field(default_factory=dict)
 
     @property
     def tau(self) -> np.ndarray:
@@ -110,6 +109,7 @@ class TraceResult:
 
     @property
     def flight_count(self) -> np.ndarray:
+        """Flights in each sigma's record (complete or cut), int[S]."""
         return np.sum(self.flight_complete >= 0, axis=-1)
 
 

@@ -46,7 +46,7 @@ def summary(result: BranchResult, scene: Scene | None = None) -> str:
     ]
     for branch in result.branches:
         peak = int(np.argmax(branch.amplitude[:, 0]))
-        state = "" if branch.complete else f" (stopped short: {ENDS[branch.end]})"
+        state = "" if branch.complete else f" (stopped short: {ENDS.get(branch.end, branch.end)})"
         lines.append(
             f"sigma {branch.sigma:g}: {branch.size} points, {int(branch.stable.sum())} stable, "
             f"peak H{int(result.harmonics[0])} {branch.amplitude[peak, 0]:.4f} at "

@@ -100,5 +100,8 @@ def plot_command(
         fig = figure(ds, view, harmonics or None, sigmas or None, extra)
     except HertzsweepError as exc:
         raise HertzsweepError(f"{input_file}: {exc}") from None
+    except (KeyError, AttributeError) as exc:  # a variable or coordinate the kind needs
+        kind = ds.attrs.get("hertzsweep_kind")
+        raise HertzsweepError(f"{input_file}: not a complete {kind} dataset ({exc})") from None
     write_figure(fig, output)
     click.echo(f"wrote {output}")
