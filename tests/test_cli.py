@@ -128,3 +128,14 @@ def test_output_file_mode_follows_umask(sweep_file):
     mask = os.umask(0)
     os.umask(mask)
     assert sweep_file.stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_unwritable_output_is_one_line(tmp_path, capsys):
+    # /proc refuses new files: the error names the output asked for, not a temporary
+    code, _, err = run_cli(
+        ["sweep", CONFIGS / "default.toml", "-o", "/proc/x.nc", "-q",
+         "--set", "sweep.stop=0.9", "--set", "excitation.sigma=0.01"],
+        capsys,
+    )  # fmt: skip
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert "/proc/x.nc" in err and ".tmp" not in err

@@ -49,8 +49,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         fail(exc.format_message().replace("\n", " "), exc.exit_code)
     except HertzsweepError as exc:
         fail(str(exc))
-    except (FileNotFoundError, PermissionError, IsADirectoryError) as exc:
-        fail(f"{exc.filename}: {exc.strerror}")
+    except OSError as exc:  # a file that cannot be read or written: no traceback
+        where = f"{exc.filename}: " if exc.filename else ""
+        fail(f"{where}{exc.strerror or exc}")
     except Interrupted as exc:
         fail("interrupted", 128 + exc.signal_number)
     except KeyboardInterrupt:
