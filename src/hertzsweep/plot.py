@@ -260,6 +260,22 @@ def _sweep_legend(ax, sigmas: np.ndarray, directions: Sequence[str]) -> None:
     ax.legend(handles=handles, fontsize="small", loc="best")
 
 
+def _label_harmonic_axes(axes, orders, with_phase: bool, f0: float) -> None:
+    """Labels, grid and the Hz axis of a harmonics figure (a row per order, amplitude and
+    optionally phase), shared by the sweep and branch figures."""
+    for row, k in enumerate(orders):
+        axes[row, 0].set_ylabel(_amplitude_label(k))
+        if with_phase:
+            axes[row, 1].set_ylabel(_phase_label(k))
+            _phase_axis(axes[row, 1])
+    for ax in axes.ravel():
+        ax.grid(True, lw=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel(W_LABEL)
+    for ax in axes[0]:
+        _hz_axis(ax, f0)
+
+
 def _sweep_markers(ax, ds: xr.Dataset, values: xr.DataArray, marker: str = "o") -> None:
     """``values`` (direction, sigma, frequency_ratio) as markers: up filled, down open."""
     w = ds.frequency_ratio.values
@@ -299,17 +315,9 @@ def sweep_figure(
     f0 = _f0(ds)
     for row, k in enumerate(orders):
         _sweep_markers(axes[row, 0], ds, ds.amplitude.sel(harmonic=k))
-        axes[row, 0].set_ylabel(_amplitude_label(k))
         if with_phase:
             _sweep_markers(axes[row, 1], ds, ds.phase.sel(harmonic=k))
-            axes[row, 1].set_ylabel(_phase_label(k))
-            _phase_axis(axes[row, 1])
-    for ax in axes.ravel():
-        ax.grid(True, lw=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel(W_LABEL)
-    for ax in axes[0]:
-        _hz_axis(ax, f0)
+    _label_harmonic_axes(axes, orders, with_phase, f0)
     _sweep_legend(axes[0, 0], ds.sigma.values, list(ds.direction.values))
     fig.suptitle(_title(ds, "Stepped-sine sweep, harmonics of $N/F_s$"), fontsize="medium")
     return fig
@@ -395,17 +403,7 @@ def branch_figure(
                 kinds_seen |= _mark_bifurcations(ax, one, y, _colour(i))
     if overlay is not None:
         _overlay_sweep(axes, overlay, sigmas, orders, with_phase)
-    for row, k in enumerate(orders):
-        axes[row, 0].set_ylabel(_amplitude_label(k))
-        if with_phase:
-            axes[row, 1].set_ylabel(_phase_label(k))
-            _phase_axis(axes[row, 1])
-    for ax in axes.ravel():
-        ax.grid(True, lw=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel(W_LABEL)
-    for ax in axes[0]:
-        _hz_axis(ax, _f0(ds))
+    _label_harmonic_axes(axes, orders, with_phase, _f0(ds))
     handles = [
         Line2D([], [], color=_colour(i), lw=2, label=_sigma_label(s)) for i, s in enumerate(sigmas)
     ]
