@@ -38,7 +38,7 @@ fig15: $(STAMP)  ## the paper's Figure 15 study: results/fig15.nc and results/fi
 	$(BIN)/hertzsweep plot results/fig15.nc -o results/fig15.png
 
 paper: $(STAMP)  ## the paper's figures and validation table in results/paper/
-	$(BIN)/python -m hertzsweep.paper configs/paper results/paper
+	$(BIN)/python -m hertzsweep.output.paper configs/paper results/paper
 
 clean:  ## remove results and caches (keeps .venv)
 	rm -rf results .pytest_cache build src/*.egg-info

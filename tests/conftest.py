@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from hertzsweep.config import load_scene, scene_from_dict
+from hertzsweep.core.config import load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"

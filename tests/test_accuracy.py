@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from hertzsweep.accuracy import (
+from hertzsweep.core.config import load_scene
+from hertzsweep.drivers.accuracy import (
     Setting,
     build_ladder,
     fitted_order,
@@ -19,10 +20,9 @@ from hertzsweep.accuracy import (
     parse_steps,
     recommend,
 )
-from hertzsweep.config import load_scene
-from hertzsweep.dataset import open_dataset
+from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import ConfigError
-from hertzsweep.sweep import run_sweep
+from hertzsweep.output.dataset import open_dataset
 
 from .conftest import CONFIGS, make_scene, run_cli
 

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from hertzsweep import integrators
-from hertzsweep.batch import advance_batch, bench_batch, lockstep, run_sweep_batched
+from hertzsweep.core.model import law_code
+from hertzsweep.drivers.batch import advance_batch, bench_batch, lockstep, run_sweep_batched
+from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import StabilityError
-from hertzsweep.model import law_code
-from hertzsweep.sweep import run_sweep
+from hertzsweep.kernels import integrators
 
 from .conftest import make_scene
 

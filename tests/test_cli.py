@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from hertzsweep.dataset import open_dataset
+from hertzsweep.output.dataset import open_dataset
 
 from .conftest import CONFIGS, run_cli
 

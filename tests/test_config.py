@@ -5,7 +5,7 @@ import textwrap
 
 import pytest
 
-from hertzsweep.config import load_scene, parse_override
+from hertzsweep.core.config import load_scene, parse_override
 
 from .conftest import CONFIGS, run_cli
 

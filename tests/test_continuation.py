@@ -6,14 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hertzsweep.accuracy import linear_response
-from hertzsweep.config import load_scene
-from hertzsweep.continuation import MAX_STEP, continue_branch, run_branch, start_end
-from hertzsweep.dataset import branch_dataset, open_dataset
-from hertzsweep.lockin import complex_amplitude
-from hertzsweep.oscillator import Oscillator, State
-from hertzsweep.shooting import PeriodMap, newton
-from hertzsweep.sweep import run_sweep
+from hertzsweep.core.config import load_scene
+from hertzsweep.core.lockin import complex_amplitude
+from hertzsweep.drivers.accuracy import linear_response
+from hertzsweep.drivers.continuation import MAX_STEP, continue_branch, run_branch, start_end
+from hertzsweep.drivers.oscillator import Oscillator, State
+from hertzsweep.drivers.shooting import PeriodMap, newton
+from hertzsweep.drivers.sweep import run_sweep
+from hertzsweep.output.dataset import branch_dataset, open_dataset
 
 from .conftest import CONFIGS, make_scene, run_cli
 
@@ -50,7 +50,7 @@ def test_linear_branch_is_one_stable_curve(linear):
 
 def test_linear_branch_matches_the_analytic_response(linear):
     """sigma = 1e-4: H1 (complex: amplitude and phase) against the linear oscillator
-    (:func:`hertzsweep.accuracy.linear_response`, continuous and of the scheme).
+    (:func:`hertzsweep.drivers.accuracy.linear_response`, continuous and of the scheme).
 
     Against the continuous response the error is the scheme's: its natural frequency is
     1 + h^2/24 + O(h^4) (2.5e-5 at N = 256), which moves the response by about

@@ -11,12 +11,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hertzsweep import integrators
-from hertzsweep.accuracy import linear_response, modified_energy, potential
+from hertzsweep.core.model import omega_max, stability_limit
+from hertzsweep.drivers.accuracy import linear_response, modified_energy, potential
+from hertzsweep.drivers.oscillator import Oscillator, State
+from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import StabilityError
-from hertzsweep.model import omega_max, stability_limit
-from hertzsweep.oscillator import Oscillator, State
-from hertzsweep.sweep import run_sweep
+from hertzsweep.kernels import integrators
 
 from .conftest import CONFIGS, make_scene, run_cli
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from hertzsweep import integrators
-from hertzsweep.lockin import amplitude_phase, complex_amplitude, demodulate, lockin_xy
-from hertzsweep.oscillator import Oscillator
+from hertzsweep.core.lockin import amplitude_phase, complex_amplitude, demodulate, lockin_xy
+from hertzsweep.drivers.oscillator import Oscillator
+from hertzsweep.kernels import integrators
 
 from .conftest import make_scene
 

@@ -8,12 +8,12 @@ import pytest
 import xarray as xr
 from matplotlib.image import imread
 
-from hertzsweep import paper
-from hertzsweep.config import load_scene
-from hertzsweep.dataset import open_dataset
+from hertzsweep.core.config import load_scene
+from hertzsweep.core.model import check_stability
 from hertzsweep.errors import ConfigError
-from hertzsweep.model import check_stability
-from hertzsweep.paper import AGREE, Ours, Reported, validation_table
+from hertzsweep.output import paper
+from hertzsweep.output.dataset import open_dataset
+from hertzsweep.output.paper import AGREE, Ours, Reported, validation_table
 
 from .conftest import CONFIGS
 

@@ -10,10 +10,10 @@ import xarray as xr
 from matplotlib.collections import PolyCollection
 from matplotlib.image import imread
 
-from hertzsweep import plot
-from hertzsweep.dataset import attrs, global_attributes, sweep_dataset, write_atomic
+from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import HertzsweepError
-from hertzsweep.sweep import run_sweep
+from hertzsweep.output import plot
+from hertzsweep.output.dataset import attrs, global_attributes, sweep_dataset, write_atomic
 
 from .conftest import make_scene, run_cli
 
@@ -416,8 +416,8 @@ def test_unknown_view_and_kind_in_library(sweep_ds):
 # The builders take the datasets the feature modules write (not only the synthetic
 # layouts above): small real runs, each drawn and checked for what the paper shows.
 def test_real_trace_flights(tmp_path, monkeypatch):
-    from hertzsweep.dataset import trace_dataset
-    from hertzsweep.trace import run_trace
+    from hertzsweep.drivers.trace import run_trace
+    from hertzsweep.output.dataset import trace_dataset
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))  # FFTW wisdom
     # Figure 17's case (sigma 7.8 %, zeta 1 %, n = 3/2) reached from 0.95 downwards
@@ -437,8 +437,8 @@ def test_real_trace_flights(tmp_path, monkeypatch):
 
 
 def test_real_branch_folds(sweep_ds):
-    from hertzsweep.continuation import run_branch
-    from hertzsweep.dataset import branch_dataset
+    from hertzsweep.drivers.continuation import run_branch
+    from hertzsweep.output.dataset import branch_dataset
 
     scene = make_scene(**SMALL_SWEEP)
     ds = branch_dataset(run_branch(scene), scene)

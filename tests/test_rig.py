@@ -4,8 +4,8 @@ import math
 
 import pytest
 
-from hertzsweep.config import RigConfig
-from hertzsweep.rig import derive
+from hertzsweep.core.config import RigConfig
+from hertzsweep.core.rig import derive
 
 PAPER = dict(ball_radius=12.7e-3, youngs_modulus=210e9, poisson_ratio=0.29, mass=11.4,
              static_load=110.0, ball_mass=0.070)  # fmt: skip

@@ -7,12 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hertzsweep import integrators
-from hertzsweep.config import load_scene
-from hertzsweep.oscillator import Oscillator
-from hertzsweep.shooting import PeriodMap, compare_with_settle, newton, shooting_dwell
-from hertzsweep.sweep import run_sweep
-from hertzsweep.tangent import period_map
+from hertzsweep.core.config import load_scene
+from hertzsweep.drivers.oscillator import Oscillator
+from hertzsweep.drivers.shooting import PeriodMap, compare_with_settle, newton, shooting_dwell
+from hertzsweep.drivers.sweep import run_sweep
+from hertzsweep.kernels import integrators
+from hertzsweep.kernels.tangent import period_map
 
 from .conftest import CONFIGS, make_scene
 

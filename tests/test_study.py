@@ -12,9 +12,8 @@ import time
 import numpy as np
 import pytest
 
-from hertzsweep.batch import run_sweep_batched
-from hertzsweep.dataset import open_dataset
-from hertzsweep.study import (
+from hertzsweep.drivers.batch import run_sweep_batched
+from hertzsweep.drivers.study import (
     canonical_json,
     case_hash,
     expand,
@@ -22,7 +21,8 @@ from hertzsweep.study import (
     parts_folder,
     read_part,
 )
-from hertzsweep.sweep import run_sweep
+from hertzsweep.drivers.sweep import run_sweep
+from hertzsweep.output.dataset import open_dataset
 
 from .conftest import CONFIGS, PAPER_RIG, run_cli
 
@@ -197,8 +197,8 @@ def test_failed_case_is_reported_and_others_complete(tmp_path, capsys):
 
 
 def test_branch_study_pads_points(tmp_path, capsys):
-    from hertzsweep.continuation import run_branch
-    from hertzsweep.dataset import branch_dataset
+    from hertzsweep.drivers.continuation import run_branch
+    from hertzsweep.output.dataset import branch_dataset
 
     # two spans give branches of different lengths: the shorter is padded along `point`
     out = tmp_path / "branch.nc"

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from hertzsweep import integrators
+from hertzsweep.drivers.oscillator import Oscillator
+from hertzsweep.drivers.sweep import find_jump, run_sweep
 from hertzsweep.errors import StabilityError
-from hertzsweep.oscillator import Oscillator
-from hertzsweep.sweep import find_jump, run_sweep
+from hertzsweep.kernels import integrators
 
 from .conftest import make_scene
 
@@ -189,8 +189,8 @@ def test_non_finite_state_is_an_error_not_a_result():
     # A state far out of contact (d < 0: no restoring force, no stiffness, so the
     # stability guard stays quiet) that overflows within a period: the kernels report it
     # and the oscillator raises, for advancing and for measuring alike.
+    from hertzsweep.drivers.oscillator import State
     from hertzsweep.errors import IntegrationError
-    from hertzsweep.oscillator import State
 
     scene = make_scene(damping={"law": "contact"}, excitation={"sigma": [0.01]})
     osc = Oscillator(scene, 0.01)

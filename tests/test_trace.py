@@ -7,19 +7,19 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from hertzsweep import spectrum as spectrum_module
 from hertzsweep.cli import main
-from hertzsweep.config import load_scene
-from hertzsweep.dataset import open_dataset, trace_dataset
-from hertzsweep.lockin import demodulate
-from hertzsweep.rig import derive
-from hertzsweep.spectrum import AmplitudeSpectrum, amplitude_spectrum, harmonic_orders
-from hertzsweep.trace import (
+from hertzsweep.core.config import load_scene
+from hertzsweep.core.lockin import demodulate
+from hertzsweep.core.rig import derive
+from hertzsweep.drivers import spectrum as spectrum_module
+from hertzsweep.drivers.spectrum import AmplitudeSpectrum, amplitude_spectrum, harmonic_orders
+from hertzsweep.drivers.trace import (
     approach_path,
     flight_intervals,
     longest_flight,
     run_trace,
 )
+from hertzsweep.output.dataset import open_dataset, trace_dataset
 
 from .conftest import CONFIGS, PAPER_RIG, make_scene
 

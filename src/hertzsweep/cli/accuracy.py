@@ -6,13 +6,19 @@ import math
 
 import click
 
-from ..accuracy import AccuracyReport, build_ladder, parse_settle_list, parse_steps, run_ladder
-from ..accuracy import assess as assess_ladder
-from ..dataset import accuracy_dataset, write_atomic
-from ..model import check_stability
-from ..progress import progress_bar
+from ..core.model import check_stability
+from ..drivers.accuracy import (
+    AccuracyReport,
+    build_ladder,
+    parse_settle_list,
+    parse_steps,
+    run_ladder,
+)
+from ..drivers.accuracy import assess as assess_ladder
+from ..output.dataset import accuracy_dataset, write_atomic
 from . import cli
 from .options import output_option, quiet_option, read_scene, scene_argument, set_option
+from .progress import progress_bar
 
 
 @cli.command("accuracy")

@@ -14,7 +14,7 @@ from . import cli
 @click.option("--quick", is_flag=True, help="Smaller runs (a smoke check, noisier figures).")
 def bench_command(as_json: bool, quick: bool) -> None:
     """Speed figures: ns per step, a 121-point sweep, the ratio to solve_ivp."""
-    from ..bench import run_all
+    from ..drivers.bench import run_all
 
     figures = run_all(quick=quick)
     if as_json:

@@ -5,12 +5,12 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from ..config import Scene
-from ..continuation import BranchResult, progress_total, run_branch
-from ..dataset import branch_dataset, write_atomic
-from ..progress import progress_bar
+from ..core.config import Scene
+from ..drivers.continuation import BranchResult, progress_total, run_branch
+from ..output.dataset import branch_dataset, write_atomic
 from . import cli
 from .options import output_option, quiet_option, read_scene, scene_argument, set_option
+from .progress import progress_bar
 
 ENDS = {
     "start": "it turned back and left the span where it began",

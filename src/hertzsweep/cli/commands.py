@@ -9,15 +9,15 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..config import load_rig
-from ..dataset import sweep_dataset, write_atomic
+from ..core.config import load_rig
+from ..core.model import check_stability, stability_limit
+from ..core.rig import UNITS, derive
+from ..drivers.sweep import dwell_count, run_sweep
 from ..errors import Interrupted
-from ..model import check_stability, stability_limit
-from ..progress import progress_bar
-from ..rig import UNITS, derive
-from ..sweep import dwell_count, run_sweep
+from ..output.dataset import sweep_dataset, write_atomic
 from . import cli
 from .options import output_option, quiet_option, read_scene, scene_argument, set_option
+from .progress import progress_bar
 
 RIG_LABELS = {
     "contact_stiffness": "contact stiffness k (eq. 12)",
@@ -33,7 +33,7 @@ RIG_LABELS = {
 
 def _scene_or_none(path: str):
     """The scene of a scene file, or None for a bare rig file."""
-    from ..config import read_toml
+    from ..core.config import read_toml
 
     raw = read_toml(path)
     return None if set(raw) == {"rig"} else read_scene(path)

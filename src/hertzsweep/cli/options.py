@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..config import Scene, load_scene
+from ..core.config import Scene, load_scene
 
 scene_argument = click.argument("scene_file", metavar="SCENE", type=click.Path(dir_okay=False))
 output_option = click.option(

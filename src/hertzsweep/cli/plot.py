@@ -9,9 +9,9 @@ import click
 import xarray as xr
 from matplotlib.figure import Figure
 
-from ..dataset import atomic_path, open_dataset
 from ..errors import HertzsweepError
-from ..plot import VIEWS, figure
+from ..output.dataset import atomic_path, open_dataset
+from ..output.plot import VIEWS, figure
 from . import cli
 
 FORMATS = ("png", "pdf", "svg")

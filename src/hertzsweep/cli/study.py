@@ -17,8 +17,7 @@ from contextlib import contextmanager
 
 import click
 
-from ..dataset import history_line, write_atomic
-from ..study import (
+from ..drivers.study import (
     DaskCluster,
     LocalPool,
     cases_summary,
@@ -29,6 +28,7 @@ from ..study import (
     resumable,
     run_study,
 )
+from ..output.dataset import history_line, write_atomic
 from . import cli, fail
 from .options import output_option, quiet_option
 

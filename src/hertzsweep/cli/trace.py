@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import click
 
-from ..dataset import trace_dataset, write_atomic
-from ..progress import progress_bar
-from ..trace import BRANCHES, DEFAULT_PERIODS, run_trace, trace_count
+from ..drivers.trace import BRANCHES, DEFAULT_PERIODS, run_trace, trace_count
+from ..output.dataset import trace_dataset, write_atomic
 from . import cli
 from .options import output_option, quiet_option, read_scene, scene_argument, set_option
+from .progress import progress_bar
 
 
 @cli.command("trace")

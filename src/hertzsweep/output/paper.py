@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m hertzsweep.paper configs/paper results/paper [--quick]
+    python -m hertzsweep.output.paper configs/paper results/paper [--quick]
 
 The folder's ``paper.toml`` lists the runs (one scene or study each, with the feature that
 runs it: sweep, trace, branch or study) and the figures drawn from their datasets. Every
@@ -32,20 +32,20 @@ import click
 import numpy as np
 import xarray as xr
 
+from ..core.config import ExcitationConfig, Scene, load_rig, load_scene, read_toml
+from ..core.rig import RigConstants, derive
+from ..drivers.sweep import run_sweep
+from ..errors import ConfigError, HertzsweepError, Interrupted
 from . import plot
-from .config import ExcitationConfig, Scene, load_rig, load_scene, read_toml
 from .dataset import atomic_path, history_line, sweep_dataset, write_atomic
-from .errors import ConfigError, HertzsweepError, Interrupted
-from .rig import RigConstants, derive
-from .sweep import run_sweep
 
 MANIFEST = "paper.toml"
 KINDS = ("sweep", "trace", "branch", "study")
 FEATURES = {  # kind -> (module, its driver, the dataset builder): a run of a missing one
-    "sweep": ("hertzsweep.sweep", "run_sweep", "sweep_dataset"),  # is skipped with a note
-    "trace": ("hertzsweep.trace", "run_trace", "trace_dataset"),
-    "branch": ("hertzsweep.continuation", "run_branch", "branch_dataset"),
-    "study": ("hertzsweep.study", "run_study", "study_dataset"),
+    "sweep": ("hertzsweep.drivers.sweep", "run_sweep", "sweep_dataset"),  # is skipped with a note
+    "trace": ("hertzsweep.drivers.trace", "run_trace", "trace_dataset"),
+    "branch": ("hertzsweep.drivers.continuation", "run_branch", "branch_dataset"),
+    "study": ("hertzsweep.drivers.study", "run_study", "study_dataset"),
 }
 RUN_KEYS = (
     "name",
@@ -445,7 +445,7 @@ def missing_feature(kind: str) -> str | None:
     if not hasattr(module, driver):
         return f"{module_name}.{driver} is not available"
     if not hasattr(dataset, builder):
-        return f"hertzsweep.dataset.{builder} is not available"
+        return f"hertzsweep.output.dataset.{builder} is not available"
     return None
 
 
@@ -468,8 +468,8 @@ def peak_frequency(scene: Scene) -> float:
 def _trace_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
     """One trace per sigma of the scene, at ``run.frequency`` or at that sigma's peak,
     reached on the upper branch (as the scene's down sweep reaches it)."""
+    from ..drivers.trace import run_trace
     from .dataset import trace_dataset
-    from .trace import run_trace
 
     scene = load_scene(run.source, run.overrides)
     out = []
@@ -480,7 +480,7 @@ def _trace_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
 
 
 def _branch_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
-    from .continuation import run_branch
+    from ..drivers.continuation import run_branch
     from .dataset import branch_dataset
 
     scene = load_scene(run.source, run.overrides)
@@ -490,8 +490,8 @@ def _branch_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
 def _study_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
     """The study on a local pool of worker processes (one per core); the overrides apply
     to its base scene. The finished cases' parts are removed once combined."""
-    from .config import apply_override, parse_override
-    from .study import LocalPool, combine, expand, load_study, parts_folder, run_study
+    from ..core.config import apply_override, parse_override
+    from ..drivers.study import LocalPool, combine, expand, load_study, parts_folder, run_study
 
     study = load_study(run.source)
     if run.overrides:
@@ -575,11 +575,11 @@ def run_paper(
 ) -> PaperResult:
     """Run every run of ``CONFIG_DIR/paper.toml``, write the datasets, the figures and
     ``OUT/validation.md``."""
-    from .cli.plot import write_figure
+    from ..cli.plot import write_figure
 
     start = time.perf_counter()
     config_dir, out_dir = Path(config_dir), Path(out_dir)
-    argv = ["python", "-m", "hertzsweep.paper", str(config_dir), str(out_dir)]
+    argv = ["python", "-m", "hertzsweep.output.paper", str(config_dir), str(out_dir)]
     argv += ["--quick"] if quick else []
     runs = read_manifest(config_dir, quick)
     out_dir.mkdir(parents=True, exist_ok=True)

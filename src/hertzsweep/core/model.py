@@ -117,7 +117,7 @@ def stability_limit(scene: Scene) -> float:
 
 def check_stability(scene: Scene) -> None:
     """Refuse a scene whose time step is at or beyond the stability limit."""
-    from .errors import StabilityError
+    from ..errors import StabilityError
 
     limit = stability_limit(scene)
     if scene.solver.steps_per_period <= limit:

@@ -32,11 +32,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .config import Scene
-from .integrators import OK
-from .model import check_stability, force_bound
+from ..core.config import Scene
+from ..core.model import check_stability, force_bound
+from ..kernels.integrators import OK
+from ..kernels.tangent import period_map, warm_up
 from .oscillator import Oscillator, Reading, State
-from .tangent import period_map, warm_up
 
 NEWTON_TOLERANCE = 1e-10  # residual |P(x) - x|_inf / Q of a converged orbit: 1e4 x above the
 # round-off of one period at N = 256 (about 1e-14 of Q), far below every reading's accuracy

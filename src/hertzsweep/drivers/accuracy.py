@@ -42,9 +42,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .config import Scene
-from .errors import ConfigError, HertzsweepError
-from .model import stability_limit
+from ..core.config import Scene
+from ..core.model import stability_limit
+from ..errors import ConfigError, HertzsweepError
 from .sweep import SweepResult, run_sweep
 
 DEFAULT_STEPS = (32, 64, 128, 256, 512, 1024, 2048)

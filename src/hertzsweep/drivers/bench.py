@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from . import integrators
-from .config import Scene, scene_from_dict
-from .lockin import demodulate
-from .model import VISCOUS
+from ..core.config import Scene, scene_from_dict
+from ..core.lockin import demodulate
+from ..core.model import VISCOUS
+from ..kernels import integrators
 from .sweep import run_sweep
 
 C_FLOOR_NS = 15.0  # hand-written C loop of the same scheme, one trajectory (issue)

@@ -12,11 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import integrators
-from .config import Scene
-from .errors import IntegrationError, StabilityError
-from .lockin import amplitude_phase
-from .model import law_code
+from ..core.config import Scene
+from ..core.lockin import amplitude_phase
+from ..core.model import law_code
+from ..errors import IntegrationError, StabilityError
+from ..kernels import integrators
 
 PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period below which
 # (or below 10x the scene tolerance) the steady state counts as T-periodic: well above

@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .model import VISCOUS, contact_terms
+from ..core.model import VISCOUS, contact_terms
 
 OK = 0
 NON_FINITE = 1

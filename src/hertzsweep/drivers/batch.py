@@ -31,11 +31,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from . import integrators
-from .config import Scene, scene_from_dict
-from .errors import HertzsweepError, Interrupted
-from .integrators import NON_FINITE, OK, UNSTABLE, _next, _next_viscous, restart
-from .model import (
+from ..core.config import Scene, scene_from_dict
+from ..core.model import (
     CONTACT_GENERAL,
     CONTACT_N0,
     CONTACT_N05,
@@ -43,7 +40,10 @@ from .model import (
     VISCOUS,
     check_stability,
 )
-from .model import contact_terms as _contact_terms
+from ..core.model import contact_terms as _contact_terms
+from ..errors import HertzsweepError, Interrupted
+from ..kernels import integrators
+from ..kernels.integrators import NON_FINITE, OK, UNSTABLE, _next, _next_viscous, restart
 from .oscillator import Oscillator, Reading, combine_readings, readings_agree
 from .sweep import Progress, SweepResult, find_jump, run_sweep, sweep_order
 

@@ -23,10 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from . import integrators
-from .config import Scene
-from .errors import ConfigError, HertzsweepError
-from .model import check_stability
+from ..core.config import Scene
+from ..core.model import check_stability
+from ..errors import ConfigError, HertzsweepError
+from ..kernels import integrators
 from .oscillator import Oscillator, State
 from .spectrum import AmplitudeSpectrum, harmonic_orders
 

@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from . import __version__
-from .config import Scene
-from .rig import RigConstants, derive
-from .sweep import SweepResult
+from .. import __version__
+from ..core.config import Scene
+from ..core.rig import RigConstants, derive
+from ..drivers.sweep import SweepResult
 
 CONVENTIONS = "CF-1.11"
 

@@ -30,7 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from .errors import HertzsweepError
+from ..errors import HertzsweepError
 
 DPI = 100  # dots per inch of the raster formats: a figure of W x H inches is 100 W x 100 H px
 KINDS = ("sweep", "trace", "branch", "study", "accuracy")

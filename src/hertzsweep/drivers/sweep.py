@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import Scene
-from .errors import HertzsweepError, Interrupted
-from .model import check_stability
+from ..core.config import Scene
+from ..core.model import check_stability
+from ..errors import HertzsweepError, Interrupted
 from .oscillator import Oscillator, Reading, State
 
 Progress = Callable[[int], None]

@@ -45,9 +45,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
-from .config import Scene
-from .errors import ConvergenceError, HertzsweepError
-from .model import check_stability
+from ..core.config import Scene
+from ..core.model import check_stability
+from ..errors import ConvergenceError, HertzsweepError
 from .oscillator import Oscillator, Reading
 from .shooting import (
     STABILITY_MARGIN,

@@ -32,8 +32,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ..core.model import VISCOUS, contact_derivatives, contact_terms
 from .integrators import NON_FINITE, OK, UNSTABLE, _next
-from .model import VISCOUS, contact_derivatives, contact_terms
 
 
 @njit(cache=True)

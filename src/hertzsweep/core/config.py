@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ConfigError
+from ..errors import ConfigError
 
 GRAVITY = 9.81  # [m s^-2] default static load is mass * GRAVITY, as in the paper (F_s = mg)
 STEEL_DENSITY = 7810.0  # [kg m^-3] 100C6 bearing steel; default ball mass from its volume

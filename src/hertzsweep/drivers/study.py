@@ -39,9 +39,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .config import CLASSES, Scene, apply_override, load_raw_scene, scene_from_dict
-from .errors import ConfigError, HertzsweepError
-from .rig import derive
+from ..core.config import CLASSES, Scene, apply_override, load_raw_scene, scene_from_dict
+from ..core.rig import derive
+from ..errors import ConfigError, HertzsweepError
 
 KINDS = ("sweep", "branch")
 SIGMA_KEY = "excitation.sigma"
@@ -267,13 +267,13 @@ def run_case(scene: Scene, kind: str, history: str | None = None) -> CaseOutcome
     t0 = time.perf_counter()
     try:
         if kind == "sweep":
+            from ..output.dataset import sweep_dataset
             from .batch import run_sweep_batched
-            from .dataset import sweep_dataset
 
             dataset = sweep_dataset(run_sweep_batched(scene), scene, history)
         else:
+            from ..output.dataset import branch_dataset
             from .continuation import run_branch
-            from .dataset import branch_dataset
 
             dataset = branch_dataset(run_branch(scene), scene, history)
     except Exception as exc:  # a failed case is recorded, the others go on
@@ -468,7 +468,7 @@ def error_path(folder: Path, case: Case) -> Path:
 def read_part(path: Path, expected_hash: str | None = None):
     """The dataset of a part file, or None when it is absent, unreadable or not the
     expected case."""
-    from .dataset import open_dataset
+    from ..output.dataset import open_dataset
 
     if not path.exists():
         return None
@@ -483,7 +483,7 @@ def read_part(path: Path, expected_hash: str | None = None):
 
 def write_part(folder: Path, study: Study, case: Case, dataset: Any) -> Path:
     """Write a finished case atomically, with its grid values and hash as attributes."""
-    from .dataset import write_atomic
+    from ..output.dataset import write_atomic
 
     dataset = dataset.copy()
     dataset.attrs.update(
@@ -508,7 +508,7 @@ def write_error(folder: Path, study: Study, case: Case, error: dict[str, str]) -
         "config": case.scene.attributes(),
         "error": error,
     }
-    from .dataset import atomic_path
+    from ..output.dataset import atomic_path
 
     path = error_path(folder, case)
     with atomic_path(path) as tmp:
@@ -609,7 +609,7 @@ def combine(
 ):
     """ONE dataset of every case's part (NaN / -1 where a case has no part), or None
     when no case has one. See :func:`hertzsweep.dataset.study_dataset`."""
-    from .dataset import study_dataset
+    from ..output.dataset import study_dataset
 
     folder = parts_folder(output)
     parts = {case.index: read_part(part_path(folder, case), case.hash) for case in cases}
