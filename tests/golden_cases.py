@@ -28,20 +28,44 @@ CASES: dict[str, list[str]] = {
     # contact laws n = 0, 1/2, 1 and a general exponent, with loss of contact
     **{
         f"sweep-contact-n{n}": [
-            "sweep", FIG17, *VIBRO, "--set", f"damping.exponent={n}",
-            "--set", "sweep.settle_periods=100",
+            "sweep",
+            FIG17,
+            *VIBRO,
+            "--set",
+            f"damping.exponent={n}",
+            "--set",
+            "sweep.settle_periods=100",
         ]
         for n in ("0", "0.5", "1", "0.7")
     },  # fmt: skip
     # viscous law with loss of contact
     "sweep-viscous-loss": [
-        "sweep", FIG17, *VIBRO, "--set", "damping.law=viscous", "--set", "sweep.settle_periods=100",
+        "sweep",
+        FIG17,
+        *VIBRO,
+        "--set",
+        "damping.law=viscous",
+        "--set",
+        "sweep.settle_periods=100",
     ],  # fmt: skip
-    "sweep-auto": ["sweep", DEFAULT, "--set", "sweep.settle_periods=auto",
-                   "--set", "excitation.sigma=[0.01]"],  # fmt: skip
+    "sweep-auto": [
+        "sweep",
+        DEFAULT,
+        "--set",
+        "sweep.settle_periods=auto",
+        "--set",
+        "excitation.sigma=[0.01]",
+    ],  # fmt: skip
     "sweep-shooting": ["sweep", DEFAULT, "--set", "sweep.steady_state=shooting"],
-    "trace-vibro": ["trace", FIG17, "--frequency", "0.58", *VIBRO, "--set",
-                    "sweep.settle_periods=200"],  # fmt: skip
+    "trace-vibro": [
+        "trace",
+        FIG17,
+        "--frequency",
+        "0.58",
+        *VIBRO,
+        "--set",
+        "sweep.settle_periods=200",
+    ],  # fmt: skip
     "branch-default": ["branch", DEFAULT, "--set", "excitation.sigma=[0.01]"],
     "branch-vibro": ["branch", FIG17],
 }

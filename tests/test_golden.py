@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
+
 from tests.golden_cases import CASES, GOLDEN, run
 
 RTOL = 1e-12  # relative to the variable's largest magnitude (see the module docstring)
