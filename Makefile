@@ -3,12 +3,14 @@ PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+SMOKE_SCENE     := configs/smoke.toml
+SMOKE_REFERENCE := tests/data/smoke-reference.nc
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo test lint bench fig15 paper clean
+.PHONY: help install demo test smoke smoke-update lint bench fig15 paper clean
 
 help:  ## list the targets
-	@grep -E '^[a-z0-9]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-8s %s\n", $$1, $$2}'
+	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-13s %s\n", $$1, $$2}'
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +27,14 @@ demo: $(STAMP)  ## run the default scene: results/demo.nc and a table on stdout
 test: $(STAMP)  ## run the whole test suite (slow tests included)
 	$(BIN)/python -m pytest -q
 
+smoke: $(STAMP)  ## a reduced default scene compared with its reference (exit 1 if it differs)
+	@mkdir -p results
+	$(BIN)/hertzsweep sweep $(SMOKE_SCENE) -o results/smoke.nc --quiet
+	$(BIN)/hertzsweep compare results/smoke.nc $(SMOKE_REFERENCE)
+
+smoke-update: $(STAMP)  ## rewrite the smoke reference (only for an intended change of the numbers)
+	$(BIN)/hertzsweep sweep $(SMOKE_SCENE) -o $(SMOKE_REFERENCE) --quiet
+
 lint: $(STAMP)  ## ruff check and format check
 	$(BIN)/ruff check src tests
 	$(BIN)/ruff format --check src tests
@@ -38,7 +48,7 @@ fig15: $(STAMP)  ## the paper's Figure 15 study: results/fig15.nc and results/fi
 	$(BIN)/hertzsweep plot results/fig15.nc -o results/fig15.png
 
 paper: $(STAMP)  ## the paper's figures and validation table in results/paper/
-	$(BIN)/python -m hertzsweep.output.paper configs/paper results/paper
+	$(BIN)/hertzsweep paper configs/paper results/paper
 
 clean:  ## remove results and caches (keeps .venv)
 	rm -rf results .pytest_cache build src/*.egg-info

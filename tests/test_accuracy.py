@@ -48,8 +48,9 @@ def test_settings_labels_and_parsing():
 
 def test_ladder_skips_rungs_below_the_stability_limit():
     # w = 0.05 puts the limit at pi * omega_max / 0.05 = 71.2 steps per period
-    scene = make_scene(sweep={"start": 0.05, "stop": 0.07, "step": 0.01},
-                       solver={"steps_per_period": 256})  # fmt: skip
+    scene = make_scene(
+        sweep={"start": 0.05, "stop": 0.07, "step": 0.01}, solver={"steps_per_period": 256}
+    )
     ladder = build_ladder(scene, steps=(32, 64, 128, 256), settle=(100,), shooting=False)
     steps = {s.steps_per_period for s in ladder.settings}
     assert steps == {128, 256}
@@ -79,10 +80,16 @@ def test_observed_order_two_without_contact_loss_and_richardson_check():
     # 600) ~ 1e-7 of each dwell's transient, the same in every rung of the axis.
     scene = make_scene(
         excitation={"sigma": [0.003]},
-        sweep={"start": 0.95, "stop": 1.01, "step": 0.02, "directions": ["up"],
-               "settle_periods": 600},
-    )  # fmt: skip
-    report = measure_accuracy(scene, steps=(64, 128, 256, 512, 1024), settle=(), shooting=False)
+        sweep={
+            "start": 0.95,
+            "stop": 1.01,
+            "step": 0.02,
+            "directions": ["up"],
+            "settle_periods": 600,
+        },
+    )
+    ladder = build_ladder(scene, steps=(64, 128, 256, 512, 1024), settle=(), shooting=False)
+    report = measure_accuracy(scene, ladder)
     assert all(np.all(r.result.contact_loss_fraction == 0) for r in report.rungs)
     assert report.observed_order == pytest.approx(2.0, abs=0.2)
     orders = [p for p in report.orders if math.isfinite(p)]
@@ -113,9 +120,14 @@ def test_contact_law_n0_is_first_order():
         scene = make_scene(
             damping={"ratio": 0.01, "law": "contact", "exponent": exponent},
             excitation={"sigma": [0.078]},
-            sweep={"start": 0.8, "stop": 1.0, "step": 0.05, "directions": ["down"],
-                   "settle_periods": 600},
-        )  # fmt: skip
+            sweep={
+                "start": 0.8,
+                "stop": 1.0,
+                "step": 0.05,
+                "directions": ["down"],
+                "settle_periods": 600,
+            },
+        )
         reference = run_sweep(Setting(32768, 600).apply(scene))
         h1 = reference.amplitude[0, 0, :, 0]
         assert np.all(reference.settled) and reference.contact_loss_fraction.max() > 0.4
@@ -176,8 +188,19 @@ def accuracy_run(tmp_path_factory):
 
 def test_cli_accuracy_dataset(accuracy_run, capsys):
     scene_file, out = accuracy_run
-    argv = ["accuracy", scene_file, "-o", out, "--steps", "64,128,256,512",
-            "--settle", "50,600,auto:1e-3", "--target", "1e-3", "-q"]  # fmt: skip
+    argv = [
+        "accuracy",
+        scene_file,
+        "-o",
+        out,
+        "--steps",
+        "64,128,256,512",
+        "--settle",
+        "50,600,auto:1e-3",
+        "--target",
+        "1e-3",
+        "-q",
+    ]
     code, stdout, err = run_cli(argv, capsys)
     assert code == 0, err
     assert "observed order" in stdout and "recommended" in stdout
@@ -187,8 +210,18 @@ def test_cli_accuracy_dataset(accuracy_run, capsys):
     assert ds.attrs["reference_label"] == labels[-1] == "N=512 settle=600"
     ref = ds.isel(setting=-1)
     assert float(ref.error_h1) == 0 and float(ref.error_force) == 0
-    for name in ("error_h1", "error_h2", "error_force", "error_jump", "cost_steps",
-                 "wall_time", "pareto", "settle", "steps_per_period", "steady_state"):  # fmt: skip
+    for name in (
+        "error_h1",
+        "error_h2",
+        "error_force",
+        "error_jump",
+        "cost_steps",
+        "wall_time",
+        "pareto",
+        "settle",
+        "steps_per_period",
+        "steady_state",
+    ):
         assert ds[name].attrs["long_name"] and "units" in ds[name].attrs
     assert ds.wall_time.attrs["units"] == "s"
     # cost: 3 frequencies x (50 settle + 10 measured periods) x 128 steps, exactly

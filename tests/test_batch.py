@@ -3,11 +3,13 @@
 import numpy as np
 import pytest
 
-from hertzsweep.core.model import law_code
-from hertzsweep.drivers.batch import advance_batch, bench_batch, lockstep, run_sweep_batched
+from hertzsweep.drivers import bench
+from hertzsweep.drivers.batch import lockstep, run_sweep_batched
+from hertzsweep.drivers.oscillator import Oscillator, drive
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import StabilityError
-from hertzsweep.kernels import integrators
+from hertzsweep.kernels import integrate, scheme
+from hertzsweep.kernels.laws import make_law
 
 from .conftest import make_scene
 
@@ -59,39 +61,47 @@ def test_single_measured_block_and_one_direction():
     assert_same(run_sweep(scene), run_sweep_batched(scene))
 
 
-def test_auto_settling_falls_back_to_run_sweep():
+def test_auto_settling_falls_back_to_one_sweep_at_a_time():
+    """``"auto"`` dwells differ in length per trajectory: the batched entry point runs the
+    sweeps one by one; checked against dwells taken by hand on the oscillator."""
     scene = small_scene(LAWS[4], settle_periods="auto", stop=0.65)
     assert not lockstep(scene)
     assert lockstep(small_scene(LAWS[4]))
-    assert_same(run_sweep(scene), run_sweep_batched(scene))
+    result = run_sweep_batched(scene)
+    oscillator = Oscillator(scene, scene.excitation.sigma[2])
+    w = scene.sweep.frequency_ratios[::-1]  # the down sweep
+    state = oscillator.rest(w[0])
+    for i, x in enumerate(w):
+        state, reading, settled = oscillator.dwell(state, x)
+        index = w.size - 1 - i
+        assert result.amplitude[1, 2, index, 0] == reading.amplitude[0]
+        assert result.settled[1, 2, index] == settled
 
 
 @pytest.mark.parametrize("law", ["viscous", "contact"])
 def test_advance_batch_equals_advance_per_trajectory(law):
-    # three trajectories at three step sizes and input levels, two of them impacting
-    scene = make_scene(damping={"ratio": 0.01, "law": law, "exponent": 1.5})
-    code = law_code(scene.damping)
-    n = 64
-    sin_table, _ = integrators.period_tables(n)
-    w = np.array([0.6, 0.8, 0.97])
-    h = np.array([integrators.step_size(x, n) for x in w])
-    sigma = np.array([0.08, 0.002, 0.05])
+    scene = small_scene({"ratio": 0.01, "law": law, "exponent": 1.5})
+    record = make_law(law, 0.01, 1.5)
+    n = scene.solver.steps_per_period
+    w = np.array([0.6, 0.8, 0.95])
+    sigma = np.array([0.078, 0.03, 0.005])
+    h = np.array([scheme.step_size(x, n) for x in w])
     q_prev, q = np.zeros(3), np.zeros(3)
-    status, bad = advance_batch(q_prev, q, h, sigma, sin_table, 150, 0.01, code, 1.5)
-    assert (status, bad) == (integrators.OK, -1)
+    status, bad = integrate.advance_batch(q_prev, q, h, record, drive(scene, sigma), 150)
+    assert (status, bad) == (scheme.OK, -1)
     for t in range(3):
-        ref = integrators.advance(0.0, 0.0, h[t], sigma[t], sin_table, 150, 0.01, code, 1.5)
+        ref = integrate.advance(0.0, 0.0, h[t], record, drive(scene, sigma[t]), 150)
         assert (q_prev[t], q[t]) == ref[:2]
 
 
 def test_advance_batch_reports_the_unstable_trajectory():
-    # 3 steps per period at w = 0.3 is far beyond the limit (h omega >= 2 at rest)
-    n = 3
-    sin_table, _ = integrators.period_tables(n)
-    h = np.array([integrators.step_size(1.0, 256), integrators.step_size(0.3, n)])
-    out = advance_batch(np.zeros(2), np.zeros(2), h, np.array([0.01, 0.01]), sin_table, 2,
-                        0.01, 0, 1.5)  # fmt: skip
-    assert out == (integrators.UNSTABLE, 1)
+    # N = 8 at w = 0.3 puts h omega beyond 2 even at rest (h = 2.6): trajectory 1 fails
+    scene = small_scene(LAWS[0])
+    h = np.array([scheme.step_size(1.0, 256), scheme.step_size(0.3, 8)])
+    out = integrate.advance_batch(
+        np.zeros(2), np.zeros(2), h, make_law("viscous", 0.01, 1.5), drive(scene, [0.01] * 2), 2
+    )
+    assert out == (scheme.UNSTABLE, 1)
 
 
 def test_batched_failure_raises_the_single_runs_error():
@@ -111,9 +121,21 @@ def test_batched_failure_raises_the_single_runs_error():
     assert str(batched.value) == str(single.value)
 
 
-def test_bench_batch_figures():
-    figures = bench_batch(counts=(2,), repeats=1)
-    assert set(figures) == {"ns_per_trajectory_step_2", "sweep_ns_per_trajectory_step_2"}
-    # compiled kernels take a few ns per trajectory-step; 500 ns is far above that on a
-    # loaded machine and far below an interpreted step (about 1 us)
-    assert all(0 < v < 500 for v in figures.values())
+def test_bench_floor_is_the_kernels_own_recurrence():
+    """The floor ``bench`` divides by is the viscous update itself, stripped of everything
+    else: the same operands in the same order give the same bits as the kernel."""
+    (a, b, k), loads = bench._chain_constants(1)
+    scene = bench.bench_scene(2)
+    h = scheme.step_size(0.97, 256)
+    q_prev, q, status = integrate.advance(
+        0.0, 0.0, h, make_law("viscous", 0.0045, 1.5), drive(scene, 0.01), 3
+    )
+    assert status == scheme.OK
+    assert bench._bare_chain(1.0, a[0], b[0], k[0], loads, 3) == scheme_compression(q)
+    lanes = bench._bare_lanes(np.ones(4), a.repeat(4)[:4], b.repeat(4)[:4], k.repeat(4)[:4],
+                              loads, 3)  # fmt: skip
+    assert np.all(lanes == scheme_compression(q))
+
+
+def scheme_compression(q):
+    return 1.0 + q * (2.0 / 3.0)

@@ -1,7 +1,12 @@
 """The sweep command end to end: run it, reopen the netCDF, check names, units, numbers."""
 
+import errno
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
+import xarray as xr
 
 from hertzsweep.output.dataset import open_dataset
 
@@ -69,14 +74,47 @@ def test_dataset_names_units_numbers(sweep_file):
     assert np.all(ds.flight_time == 0)
 
 
-def test_output_is_atomic(tmp_path, capsys):
+def test_output_is_atomic(tmp_path, capsys, monkeypatch):
+    # The disk fills up half way through writing the netCDF: the command ends with one
+    # line and exit 2, the temporary it was writing is removed, and the file already at
+    # the output's name (an earlier run's) is untouched.
     out = tmp_path / "x.nc"
-    code, _, err = run_cli(
-        ["sweep", CONFIGS / "default.toml", "-o", out, "--set", "solver.steps_per_period=3"],
+    out.write_bytes(b"an earlier run's dataset")
+    before = out.stat()
+    original = xr.Dataset.to_netcdf
+    written = []
+
+    def fail_half_way(self, path, *args, **kwargs):
+        original(self, path, *args, **kwargs)
+        written.append(Path(path))
+        size = Path(path).stat().st_size
+        with open(path, "r+b") as handle:
+            handle.truncate(size // 2)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", fail_half_way)
+    code, stdout, err = run_cli(
+        [
+            "sweep",
+            CONFIGS / "default.toml",
+            "-o",
+            out,
+            "-q",
+            "--set",
+            "sweep.stop=0.9",
+            "--set",
+            "excitation.sigma=0.01",
+        ],
         capsys,
     )
-    assert code == 2 and "stability limit" in err
-    assert list(tmp_path.iterdir()) == []  # neither the file nor a temporary is left
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert f"{out}: No space left on device" in err and "wrote" not in stdout
+    # the write went to a temporary beside the output, which is gone
+    assert len(written) == 1 and written[0].parent == tmp_path and written[0] != out
+    assert sorted(tmp_path.iterdir()) == [out]
+    after = out.stat()
+    assert out.read_bytes() == b"an earlier run's dataset"
+    assert (after.st_ino, after.st_mtime_ns) == (before.st_ino, before.st_mtime_ns)
 
 
 @pytest.mark.slow
@@ -133,9 +171,47 @@ def test_output_file_mode_follows_umask(sweep_file):
 def test_unwritable_output_is_one_line(tmp_path, capsys):
     # /proc refuses new files: the error names the output asked for, not a temporary
     code, _, err = run_cli(
-        ["sweep", CONFIGS / "default.toml", "-o", "/proc/x.nc", "-q",
-         "--set", "sweep.stop=0.9", "--set", "excitation.sigma=0.01"],
+        [
+            "sweep",
+            CONFIGS / "default.toml",
+            "-o",
+            "/proc/x.nc",
+            "-q",
+            "--set",
+            "sweep.stop=0.9",
+            "--set",
+            "excitation.sigma=0.01",
+        ],
         capsys,
-    )  # fmt: skip
+    )
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
     assert "/proc/x.nc" in err and ".tmp" not in err
+
+
+def test_context_keeps_the_error_and_its_exit_status(tmp_path, capsys):
+    # A layer adds where an error happened without re-making it: same object, type and
+    # fields, the message prefixed; it still pickles (a study's workers send errors back)
+    import pickle
+
+    from hertzsweep.errors import ConfigError, StabilityError
+
+    error = ConfigError("scene.toml", "damping.ratio", "must be >= 0")
+    assert error.with_context("study s.toml") is error
+    assert str(error) == "study s.toml: scene.toml: damping.ratio: must be >= 0"
+    assert (error.source, error.key, error.reason) == (
+        "scene.toml",
+        "damping.ratio",
+        "must be >= 0",
+    )
+    again = pickle.loads(pickle.dumps(error))
+    assert type(again) is ConfigError and str(again) == str(error) and again.key == error.key
+    assert str(StabilityError("h too large").with_context("s.toml: up sweep")) == (
+        "s.toml: up sweep: h too large"
+    )
+    # `plot` names its input before the library's message, exit 2, one line
+    from hertzsweep.output.dataset import write_atomic
+
+    source = write_atomic(xr.Dataset(attrs={"hertzsweep_kind": "movie"}), tmp_path / "m.nc")
+    code, _, err = run_cli(["plot", source, "-o", tmp_path / "f.png"], capsys)
+    assert code == 2 and err.count("\n") == 1
+    assert f"error: {source}: hertzsweep_kind: unknown kind 'movie'" in err

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from hertzsweep.core.model import omega_max, stability_limit
-from hertzsweep.drivers.accuracy import linear_response, modified_energy, potential
 from hertzsweep.drivers.oscillator import Oscillator, State
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import StabilityError
-from hertzsweep.kernels import integrators
+from hertzsweep.kernels import scheme
 
+from .analytic import linear_response, modified_energy, potential
 from .conftest import CONFIGS, make_scene, run_cli
 
 
@@ -66,7 +66,7 @@ def test_tiny_damping_adds_no_numerical_damping_and_says_unsettled():
     zeta, sigma, w, steps = 1e-5, 1e-4, 0.9, 256
     scene = scene_at([w], sigma=sigma, zeta=zeta, steps=steps)
     oscillator = Oscillator(scene, sigma)
-    h = integrators.step_size(w, steps)
+    h = scheme.step_size(w, steps)
     # q[n] = Im(Q exp(i w h n)) with Q the displacement response of the scheme
     damping = 2j * zeta * math.sin(w * h) / h
     displacement = sigma / (1 - 4 * math.sin(0.5 * w * h) ** 2 / h**2 + damping)
@@ -113,8 +113,11 @@ def test_tiny_input_matches_the_analytic_linear_response():
                                 settle=1000))  # fmt: skip
     w = result.frequency_ratio
     np.testing.assert_allclose(h1(result), sigma * abs(linear_response(w, zeta)), rtol=1e-4)
-    # against the scheme's own linear response: measured 1.4e-10, round-off level
-    np.testing.assert_allclose(h1(result), sigma * abs(linear_response(w, zeta, 1024)), rtol=1e-8)
+    # against the scheme's own linear response, round-off level: the kernels carry
+    # d = 1 + 2q/3, known to 1.1e-16 absolute, so a response of q ~ sigma = 1e-7 carries
+    # 1e-9 relative rounding per step, which accumulates over the 1020-period dwell
+    # (measured 3.4e-7; 1.4e-10 when the state was q itself, at 20 % more time per step)
+    np.testing.assert_allclose(h1(result), sigma * abs(linear_response(w, zeta, 1024)), rtol=1e-6)
     assert np.all(result.contact_loss_fraction == 0)
 
 
@@ -154,7 +157,7 @@ def test_twice_the_static_load_flies_most_of_the_period():
     defect = momentum_defect(before, after, reading)
     assert reading.mean_force - 1 == pytest.approx(defect, abs=1e-9)
     # the step stays within the stability limit at the stiffest contact reached
-    h = integrators.step_size(w, steps)
+    h = scheme.step_size(w, steps)
     assert h * reading.force_max ** (1 / 6) < 2
 
 
@@ -293,7 +296,9 @@ def test_undamped_unforced_energy_has_no_drift(compression):
     start = energy[0]
     assert start == pytest.approx(potential(compression), rel=1e-3)
     assert np.max(np.abs(energy - start)) <= 1e-6 * abs(start)
-    # no drift: the first and last thousand samples agree far below the bound
-    assert abs(energy[-1000:].mean() - energy[:1000].mean()) <= 1e-9 * abs(start)
+    # no drift: the first and last thousand samples agree far below the bound (measured
+    # 2.5e-9 of the energy over 2.6e7 steps, 1e-16 per step: the state d is rounded to
+    # 1.1e-16 at every step; 5e-9 allows two ulp per step)
+    assert abs(energy[-1000:].mean() - energy[:1000].mean()) <= 5e-9 * abs(start)
     plain = 0.5 * velocity**2 + potential(q)
     assert np.ptp(plain) > 1e-5 * abs(start)  # the plain energy would fail the 1e-6 test

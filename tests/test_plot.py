@@ -1,5 +1,6 @@
 """`hertzsweep plot`: every dataset kind renders to a figure of the documented size that
-is not blank, drawn as the paper draws it; bad input ends in exit status 2 and one line."""
+draws the dataset's numbers, as the paper draws them; bad input ends in exit status 2 and
+one line."""
 
 import os
 import stat
@@ -7,13 +8,14 @@ import stat
 import numpy as np
 import pytest
 import xarray as xr
-from matplotlib.collections import PolyCollection
+from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.image import imread
 
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import HertzsweepError
 from hertzsweep.output import plot
 from hertzsweep.output.dataset import attrs, global_attributes, sweep_dataset, write_atomic
+from hertzsweep.output.kinds import KINDS, figure
 
 from .conftest import make_scene, run_cli
 
@@ -38,20 +40,15 @@ def sweep_ds(scene):
 
 
 def _dataset(scene, kind, data, coords, extra=None):
+    """A dataset of the agreed layout; every name takes its attributes from the one table
+    (a name missing there is a KeyError: the layout and the table must agree)."""
     ds = xr.Dataset(
-        {name: (dims, np.asarray(values), _attrs(name)) for name, (dims, values) in data.items()},
-        coords={name: (dims, np.asarray(v), _attrs(name)) for name, (dims, v) in coords.items()},
+        {name: (dims, np.asarray(values), attrs(name)) for name, (dims, values) in data.items()},
+        coords={name: (dims, np.asarray(v), attrs(name)) for name, (dims, v) in coords.items()},
         attrs=global_attributes(scene, f"synthetic {kind}", kind, "test"),
     )
     ds.attrs.update(extra or {})
     return ds
-
-
-def _attrs(name):
-    try:
-        return attrs(name)
-    except KeyError:  # a name another module's section adds; long_name is enough here
-        return {"long_name": name.replace("_", " "), "units": "1"}
 
 
 @pytest.fixture(scope="module")
@@ -184,46 +181,178 @@ def accuracy_ds(scene):
     return _dataset(scene, "accuracy", data, coords, extra)
 
 
-def _png(path):
-    """Pixel size and two measures of content: distinct colours, non-white share."""
-    image = imread(path)[..., :3]
-    colours = np.unique((image * 255).astype(np.uint8).reshape(-1, 3), axis=0).shape[0]
-    ink = float(np.mean(np.any(image < 0.95, axis=-1)))
-    return image.shape[1], image.shape[0], colours, ink
-
-
 def _render(ds, tmp_path, capsys, name, *options):
+    """Run ``hertzsweep plot`` on the dataset; the PNG's (width, height) in pixels."""
     source = tmp_path / f"{name}.nc"
     write_atomic(ds, source)
     out = tmp_path / f"{name}.png"
     code, stdout, err = run_cli(["plot", source, "-o", out, *options], capsys)
     assert code == 0, err
     assert f"wrote {out}" in stdout
-    return _png(out)
+    image = imread(out)
+    return image.shape[1], image.shape[0]
 
 
-# Expected pixel sizes: inches x plot.DPI (100), from the builders' documented sizes.
+def _options(options):
+    """The keyword arguments of :func:`figure` for command-line options."""
+    kwargs = {"view": None, "harmonics": None, "sigma": None}
+    for flag, value in zip(options[::2], options[1::2], strict=True):
+        if flag == "--view":
+            kwargs["view"] = value
+        elif flag == "--harmonic":
+            kwargs["harmonics"] = [*(kwargs["harmonics"] or []), int(value)]
+        else:
+            kwargs["sigma"] = [*(kwargs["sigma"] or []), float(value)]
+    return kwargs
+
+
+def _curves(ax):
+    """(x, y) of every line of data with more than one point on an axes (not the
+    reference lines, drawn in axes coordinates, nor single markers)."""
+    return [
+        (np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float))
+        for line in ax.get_lines()
+        if np.asarray(line.get_xdata()).size > 1 and line.get_transform() is ax.transData
+    ]
+
+
+def _assert_drawn(curves, x, y):
+    """One of the curves is exactly (x, y) (NaN where the dataset has NaN)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    assert any(
+        cx.shape == x.shape
+        and np.array_equal(cx, x, equal_nan=True)
+        and np.array_equal(cy, y, equal_nan=True)
+        for cx, cy in curves
+    ), f"no curve draws {y}"
+
+
+def _sweep_drawn(fig, ds, kwargs):
+    ds = ds if kwargs["sigma"] is None else plot.select_sigma(ds, kwargs["sigma"])
+    view = kwargs["view"] or "harmonics"
+    w = ds.frequency_ratio.values
+    if view == "forces":
+        top, bottom = (_curves(ax) for ax in fig.axes[:2])
+        for direction in ds.direction.values:
+            for sigma in ds.sigma.values:
+                one = ds.sel(direction=direction, sigma=sigma)
+                _assert_drawn(top, w, one.force_max)
+                _assert_drawn(top, w, one.force_min)
+                _assert_drawn(bottom, w, 100 * one.contact_loss_fraction)
+        return len(top) + len(bottom)
+    orders = kwargs["harmonics"] or list(ds.harmonic.values)
+    columns = 2 if view == "harmonics" else 1
+    count = 0
+    for row, k in enumerate(orders):
+        for column, name in enumerate(["amplitude", "phase"][:columns]):
+            curves = _curves(fig.axes[columns * row + column])
+            count += len(curves)
+            for direction in ds.direction.values:
+                for sigma in ds.sigma.values:
+                    values = ds[name].sel(direction=direction, sigma=sigma, harmonic=k)
+                    _assert_drawn(curves, w, values)
+    return count
+
+
+def _trace_drawn(fig, ds, kwargs):
+    ds = ds if kwargs["sigma"] is None else plot.select_sigma(ds, kwargs["sigma"])
+    view = kwargs["view"] or "both"
+    t = ds.time.values
+    columns = 2 if view == "both" else 1
+    count = 0
+    for row in range(ds.sizes["sigma"]):
+        one = ds.isel(sigma=row)
+        time_axes = fig.axes[columns * row]
+        curves = _curves(time_axes)
+        count += len(curves)
+        _assert_drawn(curves, 1e3 * (t - t[0]), one.normal_force)  # ms from the start
+        if view == "both":
+            (lines,) = [
+                c for c in fig.axes[columns * row + 1].collections if isinstance(c, LineCollection)
+            ]
+            order = one.harmonic_order.values
+            shown = (order > 0) & (order <= plot.SPECTRUM_ORDERS)
+            segments = np.array(lines.get_segments())  # one vertical line per order
+            np.testing.assert_array_equal(segments[:, 0, 0], order[shown])
+            np.testing.assert_array_equal(segments[:, 1, 1], one.spectrum.values[shown])
+            count += len(segments)
+    return count
+
+
+def _branch_drawn(fig, ds, kwargs):
+    view = kwargs["view"] or "harmonics"
+    columns = 2 if view == "harmonics" else 1
+    count = 0
+    for row, k in enumerate(ds.harmonic.values):
+        drawn = _curves(fig.axes[columns * row])
+        count += len(drawn)
+        points = {(x, y) for cx, cy in drawn for x, y in zip(cx, cy, strict=True)}
+        for i in range(ds.sizes["sigma"]):
+            one = ds.isel(sigma=i)
+            valid = one.stable.values >= 0
+            w = one.frequency_ratio.values[valid]
+            amplitude = one.amplitude.sel(harmonic=k).values[valid]
+            # every point of the branch lies on the stable and unstable segments drawn
+            assert set(zip(w, amplitude, strict=True)) <= points
+    return count
+
+
+def _study_drawn(fig, ds, kwargs):
+    curves = _curves(fig.axes[0])
+    for n in ds.damping_exponent.values:
+        down = ds.jump_frequency_ratio.sel(direction="down", damping_exponent=n)
+        _assert_drawn(curves, 100 * ds.sigma.values, down)  # sigma in %
+    return len(curves)
+
+
+def _accuracy_drawn(fig, ds, kwargs):
+    ax = fig.axes[0]
+    cost = ds.cost_steps.values
+    for name, (label, _) in plot.ERROR_VARIABLES.items():
+        (line,) = [line for line in ax.get_lines() if line.get_label() == f"error in {label}"]
+        error = ds[name].values
+        np.testing.assert_array_equal(line.get_xdata(), cost)
+        np.testing.assert_array_equal(line.get_ydata(), np.where(error > 0, error, np.nan))
+    return len(_curves(ax))
+
+
+DRAWN = {  # kind -> the check that a figure draws the dataset's values; returns the curves
+    "sweep": _sweep_drawn,
+    "trace": _trace_drawn,
+    "branch": _branch_drawn,
+    "study": _study_drawn,
+    "accuracy": _accuracy_drawn,
+}
+
+
+def test_every_kind_has_a_check():
+    assert set(DRAWN) == set(KINDS)
+
+
+# Expected pixel sizes: inches x plot.DPI (100), from the builders' documented sizes;
+# expected curves: one per sigma and direction on each panel (sweep), one per sigma
+# (trace), the stability segments (branch), one per damping law (study), one per error
+# measure and the Pareto front (accuracy).
 @pytest.mark.parametrize(
-    "fixture, options, size",
+    "fixture, options, size, curves",
     [
-        ("sweep_ds", [], (1100, 740)),  # 2 harmonics, amplitude and phase
-        ("sweep_ds", ["--view", "amplitude", "--harmonic", "1"], (800, 500)),
-        ("sweep_ds", ["--view", "forces", "--sigma", "0.01"], (800, 700)),
-        ("trace_ds", [], (1300, 610)),  # 2 sigma rows, time and spectrum
-        ("trace_ds", ["--view", "time", "--sigma", "0.07"], (1000, 350)),
-        ("branch_ds", [], (1100, 740)),
-        ("study_ds", [], (850, 600)),
-        ("accuracy_ds", [], (900, 650)),
+        ("sweep_ds", [], (1100, 740), 16),  # 2 harmonics, amplitude and phase
+        ("sweep_ds", ["--view", "amplitude", "--harmonic", "1"], (800, 500), 4),
+        ("sweep_ds", ["--view", "forces", "--sigma", "0.01"], (800, 700), 6),
+        ("trace_ds", [], (1300, 610), 2 + 2 * 34),  # 2 sigma rows: force and 34 lines
+        ("trace_ds", ["--view", "time", "--sigma", "0.07"], (1000, 350), 1),
+        ("branch_ds", [], (1100, 740), 12),  # 2 sigma x stable, unstable, stable x 2 rows
+        ("study_ds", [], (850, 600), 4),
+        ("accuracy_ds", [], (900, 650), 4 + 1),  # 4 error measures and the Pareto front
     ],
 )
-def test_every_kind_renders(fixture, options, size, request, tmp_path, capsys):
+def test_every_kind_renders(fixture, options, size, curves, request, tmp_path, capsys):
     ds = request.getfixturevalue(fixture)
-    width, height, colours, ink = _render(ds, tmp_path, capsys, fixture, *options)
-    assert (width, height) == size
-    # Not blank: a white page with a frame has 2-3 colours and <1 % ink; every figure
-    # here has labelled axes, several series colours and antialiased markers or lines.
-    assert colours > 50
-    assert ink > 0.03
+    assert _render(ds, tmp_path, capsys, fixture, *options) == size
+    # the figure the command saved draws the dataset's numbers
+    kwargs = _options(options)
+    fig = figure(ds, **kwargs)
+    assert DRAWN[ds.attrs["hertzsweep_kind"]](fig, ds, kwargs) == curves
 
 
 def test_vector_formats(sweep_ds, tmp_path, capsys):
@@ -293,7 +422,7 @@ def test_not_netcdf_exit_2(tmp_path, capsys):
 
 # --------------------------------------------------------------------------- drawn as the paper
 def test_sweep_markers_and_hz_axis(sweep_ds):
-    fig = plot.figure(sweep_ds, harmonics=[1])
+    fig = figure(sweep_ds, harmonics=[1])
     amplitude_axes = fig.axes[0]
     lines = [line for line in amplitude_axes.get_lines() if line.get_xdata().size > 1]
     # one series per sigma and direction: up filled (face = edge colour), down open
@@ -320,7 +449,7 @@ def test_stability_segments():
 
 
 def test_branch_stable_solid_unstable_dotted_folds(branch_ds):
-    fig = plot.figure(branch_ds, view="amplitude", harmonics=[1])
+    fig = figure(branch_ds, view="amplitude", harmonics=[1])
     ax = fig.axes[0]
     curves = [line for line in ax.get_lines() if line.get_xdata().size > 1]
     styles = {line.get_linestyle() for line in curves}
@@ -341,16 +470,16 @@ def test_branch_stable_solid_unstable_dotted_folds(branch_ds):
 
 
 def test_branch_overlay_sweep(branch_ds, sweep_ds):
-    plain = plot.figure(branch_ds, view="amplitude", harmonics=[1])
-    over = plot.figure(branch_ds, view="amplitude", harmonics=[1], overlay=sweep_ds)
+    plain = figure(branch_ds, view="amplitude", harmonics=[1])
+    over = figure(branch_ds, view="amplitude", harmonics=[1], overlay=sweep_ds)
     # two sigma levels match, each with an up and a down sweep: four marker series more
     assert len(over.axes[0].get_lines()) - len(plain.axes[0].get_lines()) == 4
     with pytest.raises(HertzsweepError, match="expected a sweep"):
-        plot.figure(branch_ds, overlay=branch_ds)
+        figure(branch_ds, overlay=branch_ds)
 
 
 def test_trace_flights_shaded_and_spectrum(trace_ds):
-    fig = plot.figure(trace_ds)
+    fig = figure(trace_ds)
     time_axes, spectrum_axes = fig.axes[0], fig.axes[1]
     shaded = [c for c in time_axes.collections if isinstance(c, PolyCollection)]
     assert shaded  # sigma = 7 % loses contact
@@ -370,7 +499,7 @@ def test_trace_figure_stacks_datasets(trace_ds):
 
 
 def test_study_one_curve_per_damping_law(study_ds):
-    fig = plot.figure(study_ds)
+    fig = figure(study_ds)
     ax = fig.axes[0]
     curves = ax.get_lines()
     assert len(curves) == 4
@@ -388,11 +517,11 @@ def test_study_one_curve_per_damping_law(study_ds):
     assert ax.get_xscale() == "log"
     narrow = study_ds.copy(deep=True)
     narrow["jump_frequency_ratio"][..., 0] = np.nan  # nothing drawn at 0.2 %: 1 % to 7 %
-    assert plot.figure(narrow).axes[0].get_xscale() == "linear"
+    assert figure(narrow).axes[0].get_xscale() == "linear"
 
 
 def test_accuracy_log_log_pareto(accuracy_ds):
-    fig = plot.figure(accuracy_ds)
+    fig = figure(accuracy_ds)
     ax = fig.axes[0]
     assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
     front = [line for line in ax.get_lines() if line.get_label().startswith("Pareto")]
@@ -405,21 +534,20 @@ def test_accuracy_log_log_pareto(accuracy_ds):
 
 def test_unknown_view_and_kind_in_library(sweep_ds):
     with pytest.raises(HertzsweepError, match="views harmonics, amplitude, forces"):
-        plot.figure(sweep_ds, view="time")
+        figure(sweep_ds, view="time")
     odd = sweep_ds.copy()
     odd.attrs["hertzsweep_kind"] = "movie"
     with pytest.raises(HertzsweepError, match="unknown kind 'movie'"):
-        plot.figure(odd)
+        figure(odd)
 
 
 # --------------------------------------------------------------------------- real datasets
-# The builders take the datasets the feature modules write (not only the synthetic
+# The builders take the datasets the drivers and builders make (not only the synthetic
 # layouts above): small real runs, each drawn and checked for what the paper shows.
-def test_real_trace_flights(tmp_path, monkeypatch):
+def test_real_trace_flights():
     from hertzsweep.drivers.trace import run_trace
     from hertzsweep.output.dataset import trace_dataset
 
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))  # FFTW wisdom
     # Figure 17's case (sigma 7.8 %, zeta 1 %, n = 3/2) reached from 0.95 downwards
     scene = make_scene(
         damping={"ratio": 0.01, "law": "contact", "exponent": 1.5},
@@ -427,7 +555,7 @@ def test_real_trace_flights(tmp_path, monkeypatch):
         sweep={"start": 0.58, "stop": 0.95, "step": 0.01, "settle_periods": 150},
     )
     ds = trace_dataset(run_trace(scene, 0.58, periods=2, branch="upper"), scene)
-    fig = plot.figure(ds)
+    fig = figure(ds)
     time_axes = fig.axes[0]
     assert [c for c in time_axes.collections if isinstance(c, PolyCollection)]
     assert f"out of contact {100 * float(ds.contact_loss_fraction[0]):.0f} %" in (
@@ -442,7 +570,7 @@ def test_real_branch_folds(sweep_ds):
 
     scene = make_scene(**SMALL_SWEEP)
     ds = branch_dataset(run_branch(scene), scene)
-    fig = plot.figure(ds, view="amplitude", harmonics=[1], sigma=[0.01], overlay=sweep_ds)
+    fig = figure(ds, view="amplitude", harmonics=[1], sigma=[0.01], overlay=sweep_ds)
     ax = fig.axes[0]
     curves = [line for line in ax.get_lines() if line.get_linestyle() in ("-", ":")]
     assert {line.get_linestyle() for line in curves} == {"-", ":"}

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from hertzsweep.core.config import load_scene
+from hertzsweep.drivers.bench import compare_with_settle
 from hertzsweep.drivers.oscillator import Oscillator
-from hertzsweep.drivers.shooting import PeriodMap, compare_with_settle, newton, shooting_dwell
+from hertzsweep.drivers.shooting import PeriodMap, newton, shooting_dwell
 from hertzsweep.drivers.sweep import run_sweep
-from hertzsweep.kernels import integrators
-from hertzsweep.kernels.tangent import period_map
+from hertzsweep.kernels import integrate, scheme
 
 from .conftest import CONFIGS, make_scene
 
@@ -27,11 +27,8 @@ CASES = [(VISCOUS_1, 0.95), (CONTACT_78, 0.98)]
 
 def _map(oscillator, state):
     derivative = np.zeros((2, 3))
-    out = period_map(
-        state.q_prev, state.q, state.h, oscillator.sigma, oscillator.sin_table,
-        oscillator.zeta, oscillator.law, oscillator.exponent, derivative,
-    )  # fmt: skip
-    return np.array(out[:2]), out[2], derivative
+    end, status = oscillator.period_map(state, derivative)
+    return np.array([end.q_prev, end.q]), status, derivative
 
 
 @pytest.mark.parametrize(("tables", "w"), CASES)
@@ -39,28 +36,28 @@ def test_period_map_is_one_period_of_the_scheme(tables, w):
     oscillator = Oscillator(make_scene(**tables), tables["excitation"]["sigma"])
     state = oscillator.advance(oscillator.rest(w), w, 7)
     end, status, _ = _map(oscillator, state)
-    q_prev, q, reference_status = integrators.advance(
-        state.q_prev, state.q, state.h, oscillator.sigma, oscillator.sin_table, 1,
-        oscillator.zeta, oscillator.law, oscillator.exponent,
-    )  # fmt: skip
-    assert status == reference_status == integrators.OK
-    # the same update compiled in another function: round-off differences only (1e-16 per
-    # step on an orbit of amplitude 0.1 to 1, over 256 steps)
-    np.testing.assert_allclose(end, [q_prev, q], rtol=0, atol=1e-12)
+    q_prev, q, reference_status = integrate.advance(
+        state.q_prev, state.q, state.h, oscillator.law, oscillator.drive, 1
+    )
+    assert status == reference_status == scheme.OK
+    # the tangent map's trajectory is advance's own step: bit for bit
+    assert end[0] == q_prev and end[1] == q
 
 
 @pytest.mark.parametrize(("tables", "w"), CASES)
 def test_period_map_jacobian_matches_finite_differences(tables, w):
-    """The exact derivative of the discrete map against central differences with a
-    relative step of 1e-7: round-off contributes about 1e-16 / 1e-7 times the growth over
-    the period (1e-8 relative), truncation O(1e-14) where the force is smooth; where a
+    """The exact derivative of the discrete map against central differences with a step
+    of 1e-7 in the state and 1e-6 of h in h: the kernels carry d = 1 + 2q/3, known to
+    1.1e-16 absolute, so round-off contributes about 1e-16 / step times the growth over the
+    period (1e-8 relative; 1e-7 on the h column, whose step is only 2.6e-8 at w = 0.95),
+    truncation O(1e-14) where the force is smooth; where a
     step grazes d = 0 (the second case) the Hertz law's R'' ~ d^(-1/2) makes the
     quotient's error O(eps^(1/2)) in the worst case, about 5e-9 at this state."""
     oscillator = Oscillator(make_scene(**tables), tables["excitation"]["sigma"])
     state = oscillator.advance(oscillator.rest(w), w, 40)  # a transient state: generic
     _, _, derivative = _map(oscillator, state)
     eps = 1e-7
-    for column, (dq_prev, dq, dh) in enumerate([(eps, 0, 0), (0, eps, 0), (0, 0, eps * state.h)]):
+    for column, (dq_prev, dq, dh) in enumerate([(eps, 0, 0), (0, eps, 0), (0, 0, 1e-6 * state.h)]):
         plus, _, _ = _map(oscillator, replace(state, q_prev=state.q_prev + dq_prev,
                                               q=state.q + dq, h=state.h + dh))  # fmt: skip
         minus, _, _ = _map(oscillator, replace(state, q_prev=state.q_prev - dq_prev,

@@ -13,21 +13,31 @@ import numpy as np
 import pytest
 
 from hertzsweep.drivers.batch import run_sweep_batched
-from hertzsweep.drivers.study import (
-    canonical_json,
-    case_hash,
-    expand,
-    load_study,
-    parts_folder,
-    read_part,
-)
+from hertzsweep.drivers.study import Engine, canonical_json, case_hash, expand, run_case, run_study
+from hertzsweep.drivers.study import load_study as load_study_file
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.output.dataset import open_dataset
+from hertzsweep.output.kinds import STUDY_KINDS
+from hertzsweep.output.study import parts_folder, read_part
 
 from .conftest import CONFIGS, PAPER_RIG, run_cli
 
-VARIABLES = ("amplitude", "phase", "force_max", "force_min", "contact_loss_fraction",
-             "flight_time", "settled", "periodic", "jump_frequency_ratio")  # fmt: skip
+VARIABLES = (
+    "amplitude",
+    "phase",
+    "force_max",
+    "force_min",
+    "contact_loss_fraction",
+    "flight_time",
+    "settled",
+    "periodic",
+    "jump_frequency_ratio",
+)
+
+
+def load_study(path):
+    """A study file with the kinds the registry can run as cases (as the command reads it)."""
+    return load_study_file(path, STUDY_KINDS)
 
 
 def toml_value(value):
@@ -43,10 +53,15 @@ def write_study(path, grid, split_sigma=False, **tables):
     scene = {
         "damping": {"ratio": 0.01, "law": "contact", "exponent": 1.5},
         "excitation": {"sigma": [0.01]},
-        "sweep": {"start": 0.7, "stop": 1.0, "step": 0.1, "settle_periods": 40,
-                  "measure_periods": 4},
+        "sweep": {
+            "start": 0.7,
+            "stop": 1.0,
+            "step": 0.1,
+            "settle_periods": 40,
+            "measure_periods": 4,
+        },
         "solver": {"steps_per_period": 64},
-    }  # fmt: skip
+    }
     for name, table in tables.items():
         scene.setdefault(name, {}).update(table)
     lines = ['kind = "sweep"', f"split_sigma = {str(split_sigma).lower()}", "[rig]"]
@@ -60,8 +75,11 @@ def write_study(path, grid, split_sigma=False, **tables):
     return path
 
 
-GRID = {"damping.exponent": [0, 1.5], "damping.ratio": [0.01, 0.02],
-        "excitation.sigma": [0.004, 0.06]}  # fmt: skip
+GRID = {
+    "damping.exponent": [0, 1.5],
+    "damping.ratio": [0.01, 0.02],
+    "excitation.sigma": [0.004, 0.06],
+}
 
 
 def test_grid_expansion_names_and_hashes(tmp_path):
@@ -139,10 +157,20 @@ def test_combined_dataset_dims_and_numbers(tmp_path, capsys):
     assert "4 cases: 4 computed, 0 resumed, 0 failed" in stdout
     ds = open_dataset(out)
     assert ds.attrs["hertzsweep_kind"] == "study" and ds.attrs["study_kind"] == "sweep"
-    assert ds.amplitude.dims == ("direction", "damping_exponent", "damping_ratio", "sigma",
-                                 "frequency_ratio", "harmonic")  # fmt: skip
-    assert ds.jump_frequency_ratio.dims == ("direction", "damping_exponent", "damping_ratio",
-                                            "sigma")  # fmt: skip
+    assert ds.amplitude.dims == (
+        "direction",
+        "damping_exponent",
+        "damping_ratio",
+        "sigma",
+        "frequency_ratio",
+        "harmonic",
+    )
+    assert ds.jump_frequency_ratio.dims == (
+        "direction",
+        "damping_exponent",
+        "damping_ratio",
+        "sigma",
+    )
     assert ds.case_failed.dims == ("damping_exponent", "damping_ratio", "sigma")
     assert np.all(ds.case_failed == 0)
     np.testing.assert_array_equal(ds.damping_exponent, [0, 1.5])
@@ -154,11 +182,14 @@ def test_combined_dataset_dims_and_numbers(tmp_path, capsys):
     # every case equals its own single-trajectory sweep (bit for bit)
     for case in expand(load_study(path)):
         single = run_sweep(case.scene)
-        sel = ds.sel(damping_exponent=case.values["damping.exponent"],
-                     damping_ratio=case.values["damping.ratio"])  # fmt: skip
+        sel = ds.sel(
+            damping_exponent=case.values["damping.exponent"],
+            damping_ratio=case.values["damping.ratio"],
+        )
         assert np.array_equal(sel.amplitude.values, single.amplitude)
-        assert np.array_equal(sel.jump_frequency_ratio.values, single.jump_frequency_ratio,
-                              equal_nan=True)  # fmt: skip
+        assert np.array_equal(
+            sel.jump_frequency_ratio.values, single.jump_frequency_ratio, equal_nan=True
+        )
         assert sel.case_id.item() == case.hash
     assert np.nanmax(ds.contact_loss_fraction) > 0.2  # sigma = 6 % impacts
     # one case per sigma gives the same numbers
@@ -202,9 +233,11 @@ def test_branch_study_pads_points(tmp_path, capsys):
 
     # two spans give branches of different lengths: the shorter is padded along `point`
     out = tmp_path / "branch.nc"
-    path = write_study(tmp_path / "b.toml", {"sweep.stop": [0.98, 1.05],
-                                             "excitation.sigma": [0.004, 0.01]},
-                       sweep={"start": 0.9, "step": 0.05})  # fmt: skip
+    path = write_study(
+        tmp_path / "b.toml",
+        {"sweep.stop": [0.98, 1.05], "excitation.sigma": [0.004, 0.01]},
+        sweep={"start": 0.9, "step": 0.05},
+    )
     path.write_text(path.read_text().replace('kind = "sweep"', 'kind = "branch"'))
     code, stdout, err = run_cli(["study", path, "-o", out, "--workers", "2", "-q"], capsys)
     assert code == 0, err
@@ -219,8 +252,57 @@ def test_branch_study_pads_points(tmp_path, capsys):
         assert np.array_equal(sel.amplitude.values[:, :n], part.amplitude.values)
         assert np.all(np.isnan(sel.amplitude.values[:, n:]))
         assert np.all(sel.stable.values[:, n:] == -1)
-    assert ds.sizes["point"] > 100 > int(np.isfinite(ds.frequency_ratio.sel(sweep_stop=0.98)
-                                                     .isel(sigma=0)).sum())  # fmt: skip
+    assert (
+        ds.sizes["point"]
+        > 100
+        > int(np.isfinite(ds.frequency_ratio.sel(sweep_stop=0.98).isel(sigma=0)).sum())
+    )
+
+
+class InProcess(Engine):
+    """Runs each case at once, in this process (what the pools do, without the pool)."""
+
+    name = "in process"
+
+    def __init__(self):
+        self.outcomes = {}
+
+    def submit(self, case, runner):
+        self.outcomes[case.hash] = run_case(runner, case.scene)
+        return case.hash
+
+    def completed(self, handles, timeout):
+        return [(handle, self.outcomes.pop(handle)) for handle in handles]
+
+    def stop(self, handles):
+        pass
+
+    def close(self):
+        pass
+
+
+def test_driver_hands_results_to_on_case_and_writes_nothing(tmp_path, monkeypatch):
+    # The driver runs each case to its driver's result and hands it to the caller's
+    # on_case; it writes no file (the output layer does, through on_case)
+    monkeypatch.chdir(tmp_path)
+    path = write_study(tmp_path / "s.toml", {"solver.steps_per_period": [64, 3]})
+    cases = expand(load_study(path))
+    before = sorted(tmp_path.rglob("*"))
+    kept = []
+
+    def on_case(case, outcome):
+        kept.append((case, outcome))
+        return outcome
+
+    run = run_study(cases, InProcess(), run_sweep_batched, on_case, skip=cases[1:])
+    assert sorted(tmp_path.rglob("*")) == before
+    assert [case for case, _ in kept] == cases[:1] == run.computed and run.resumed == cases[1:]
+    assert np.array_equal(kept[0][1].result.amplitude, run_sweep(cases[0].scene).amplitude)
+    # a case that fails comes back as its error, with the traceback; the others go on
+    run = run_study(cases, InProcess(), run_sweep_batched, on_case)
+    ((case, error),) = run.failed
+    assert case is cases[1] and error["type"] == "StabilityError"
+    assert "Traceback" in error["traceback"] and run.computed == cases[:1]
 
 
 def test_unreadable_part_is_not_resumed(tmp_path):
@@ -238,8 +320,9 @@ def test_dask_local_cluster_gives_the_local_pool_numbers(tmp_path, capsys):
     local, remote = tmp_path / "local.nc", tmp_path / "dask.nc"
     code, _, err = run_cli(["study", path, "-o", local, "--workers", "2", "-q"], capsys)
     assert code == 0, err
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  host="127.0.0.1", dashboard_address=None) as cluster:  # fmt: skip
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
         argv = ["study", path, "-o", remote, "--scheduler", cluster.scheduler_address, "-q"]
         code, stdout, err = run_cli(argv, capsys)
     assert code == 0, err
@@ -256,8 +339,9 @@ def slow_study(tmp_path):
 
 def start(path, out, *extra):
     cmd = [sys.executable, "-m", "hertzsweep", "study", str(path), "-o", str(out), "-q", *extra]
-    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)  # fmt: skip
+    return subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
 
 
 def wait_for_parts(folder, count, proc, timeout=120.0):

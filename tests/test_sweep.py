@@ -6,7 +6,7 @@ import pytest
 from hertzsweep.drivers.oscillator import Oscillator
 from hertzsweep.drivers.sweep import find_jump, run_sweep
 from hertzsweep.errors import StabilityError
-from hertzsweep.kernels import integrators
+from hertzsweep.kernels import integrate, scheme
 
 from .conftest import make_scene
 
@@ -120,8 +120,9 @@ def test_frequency_change_keeps_the_state():
     scene = make_scene(excitation={"sigma": [0.006]})
     osc = Oscillator(scene, 0.006)
     state = osc.advance(osc.rest(0.95), 0.95, 500)
-    v_old = (integrators.restart(state.q_prev, state.q, state.h, state.h, osc.zeta, osc.law,
-                                 osc.exponent) - state.q) / -state.h  # fmt: skip
+    v_old = (integrate.restart(state.q_prev, state.q, state.h, state.h, osc.law) - state.q) / (
+        -state.h
+    )
     moved = osc.retune(state, 0.9525)
     v_new = (moved.q - moved.q_prev) / moved.h
     assert moved.q == state.q
@@ -200,6 +201,5 @@ def test_non_finite_state_is_an_error_not_a_result():
         osc.advance(runaway, 1.0, 2)
     with pytest.raises(IntegrationError, match="non-finite"):
         osc.measure(runaway, 1.0, 2)
-    q_prev, q, status = integrators.advance(0.0, -1e306, h, 0.01, osc.sin_table, 1, osc.zeta,
-                                            osc.law, osc.exponent)  # fmt: skip
-    assert status == integrators.NON_FINITE and not np.isfinite(q)
+    q_prev, q, status = integrate.advance(0.0, -1e306, h, osc.law, osc.drive, 1)
+    assert status == scheme.NON_FINITE and not np.isfinite(q)

@@ -33,23 +33,14 @@ IMPACT = dict(
 )
 
 
-@pytest.fixture(scope="module", autouse=True)
-def cache_home(tmp_path_factory):
-    """FFTW wisdom goes to a temporary cache, not the user's."""
-    path = tmp_path_factory.mktemp("cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("XDG_CACHE_HOME", str(path))
-        yield path
-
-
 @pytest.fixture(scope="module")
-def one_percent(cache_home):
+def one_percent():
     scene = load_scene(CONFIGS / "default.toml", ["excitation.sigma=0.01"])
     return scene, run_trace(scene, 0.975, periods=8, branch="upper")
 
 
 @pytest.fixture(scope="module")
-def impacting(cache_home):
+def impacting():
     scene = make_scene(**IMPACT)
     return scene, run_trace(scene, 0.58, periods=8, branch="upper")
 
@@ -88,17 +79,19 @@ def test_pyfftw_equals_numpy_and_offset_keeps_the_mean():
     assert a[0] == pytest.approx(signal.mean(), abs=1e-15)
 
 
-def test_wisdom_cached_on_disk(tmp_path, monkeypatch):
-    pyfftw = pytest.importorskip("pyfftw")
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    assert spectrum_module.wisdom_path() == tmp_path / "hertzsweep" / "fftw-wisdom-double"
-    AmplitudeSpectrum(3 * 7 * 64)  # a new size: planned with FFTW_MEASURE, then saved
-    data = spectrum_module.wisdom_path().read_bytes()
-    assert data.startswith(b"(fftw-")
-    assert pyfftw.import_wisdom((data, b"", b""))[0]
-    monkeypatch.delenv("XDG_CACHE_HOME")
+def test_plans_cached_in_the_process_and_nothing_written(tmp_path, monkeypatch):
+    pytest.importorskip("pyfftw")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
-    assert spectrum_module.cache_directory() == tmp_path / "home" / ".cache" / "hertzsweep"
+    samples = 3 * 7 * 64  # a length no other test plans
+    rng = np.random.default_rng(5)
+    signal = rng.standard_normal(samples)
+    first = AmplitudeSpectrum(samples).amplitude(signal)
+    # one plan per length for the process: a second spectrum reuses it
+    assert spectrum_module.fftw_plan(samples) is spectrum_module.fftw_plan(samples)
+    np.testing.assert_array_equal(AmplitudeSpectrum(samples).amplitude(signal), first)
+    # FFTW_ESTIMATE plans from heuristics: no wisdom, no file anywhere
+    assert list(tmp_path.iterdir()) == []
 
 
 # --------------------------------------------------------------------------- flights
@@ -235,7 +228,7 @@ def test_decimated_record_is_every_stride_th_step(impacting):
     np.testing.assert_allclose(decimated.flight_end, full.flight_end, atol=1e-3 * full.sample_step)
 
 
-def test_memory_of_a_long_record(cache_home):
+def test_memory_of_a_long_record():
     # 2000 periods x 64 samples: the peak traced allocation stays within 2x the arrays
     # the trace returns (record and spectrum); the integration keeps no history.
     scene = make_scene(

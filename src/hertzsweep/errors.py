@@ -1,14 +1,44 @@
 """The one module of exceptions.
 
-Every error a user can cause is a :class:`HertzsweepError` (a ``ValueError``).
-Only the command line turns them into a one-line message and exit status 2.
+Every error a user can cause is a :class:`HertzsweepError` (a ``ValueError``). Only the
+command line (:func:`hertzsweep.cli.main`) turns an exception into a one-line message and
+an exit status:
+
+- :class:`HertzsweepError`: 2;
+- :class:`Failed`: 1 (e.g. a study kept its other cases);
+- :class:`Stopped`, :class:`Interrupted`: 128 + the signal number.
+
+A layer that catches an error to say where it happened adds that with
+:meth:`HertzsweepError.with_context` and re-raises the same exception: its type and its
+fields stay.
 """
 
 from __future__ import annotations
 
+from typing import Any, Self
+
 
 class HertzsweepError(ValueError):
     """Base class of the errors a user can cause (bad file, key, value or setting)."""
+
+    def with_context(self, prefix: str) -> Self:
+        """Prefix the message with where the error happened, in place.
+
+        Parameters
+        ----------
+        prefix : str
+            E.g. ``"scene.toml: up sweep"``; the message becomes ``"PREFIX: message"``.
+
+        Returns
+        -------
+        HertzsweepError
+            The same exception (same type, same fields, same traceback), to re-raise::
+
+                except HertzsweepError as exc:
+                    raise exc.with_context(f"{scene.source}: trace at w = {w:g}") from None
+        """
+        self.args = (f"{prefix}: {self}",)
+        return self
 
 
 class ConfigError(HertzsweepError):
@@ -31,6 +61,11 @@ class ConfigError(HertzsweepError):
         where = f"{source}: {key}: " if key else f"{source}: "
         super().__init__(where + reason)
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle by the fields (the constructor does not take the message), keeping a
+        message given context by :meth:`with_context`."""
+        return (type(self), (self.source, self.key, self.reason), {"args": self.args})
+
 
 class StabilityError(HertzsweepError):
     """The time step is beyond the stability limit of the explicit scheme."""
@@ -42,6 +77,27 @@ class IntegrationError(HertzsweepError):
 
 class ConvergenceError(HertzsweepError):
     """A Newton iteration or a continuation could not converge."""
+
+
+class Failed(Exception):
+    """The command ran to its end and reports a failure: some cases of a study failed (the
+    others were kept and written), a result lies outside its tolerance. Exit status 1."""
+
+
+class Stopped(Exception):
+    """A run stopped on request (SIGINT or SIGTERM) after keeping what it finished.
+
+    Parameters
+    ----------
+    message : str
+        What was kept, and how to go on.
+    signal_number : int
+        The signal that stopped it (the exit status is 128 + this).
+    """
+
+    def __init__(self, message: str, signal_number: int) -> None:
+        super().__init__(message)
+        self.signal_number = signal_number
 
 
 class Interrupted(KeyboardInterrupt):

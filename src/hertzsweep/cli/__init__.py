@@ -1,7 +1,14 @@
-"""The command line. Only this package opens and writes files, and only here do
-errors a user can cause become one line on stderr and exit status 2.
+"""The command line. Only the output layer and this package write files, and only here
+(:func:`main`) do exceptions become one line on stderr and an exit status:
 
-Each command lives in a submodule that registers itself on :data:`main`'s group.
+- :class:`~hertzsweep.errors.HertzsweepError`, click's usage errors, a file that cannot
+  be read or written: 2;
+- :class:`~hertzsweep.errors.Failed`: 1;
+- :class:`~hertzsweep.errors.Stopped`, :class:`~hertzsweep.errors.Interrupted`, SIGINT:
+  128 + the signal number (130 for SIGINT, 143 for SIGTERM).
+
+Each command lives in a submodule that registers itself on the group
+(:mod:`hertzsweep.cli.group`).
 """
 
 from __future__ import annotations
@@ -12,18 +19,12 @@ from collections.abc import Sequence
 
 import click
 
-from .. import __version__
-from ..errors import HertzsweepError, Interrupted
+from ..errors import Failed, HertzsweepError, Interrupted, Stopped
+from .group import cli
 
 EXIT_USAGE = 2  # bad file, key, value or setting (and click's usage errors)
+EXIT_FAILED = 1  # the command ran and reports a failure (a study case failed, ...)
 EXIT_INTERRUPTED = 130  # SIGINT, as a shell reports it
-
-
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="hertzsweep")
-def cli() -> None:
-    """Simulated stepped-sine vibration tests of a preloaded Hertzian contact
-    (Rigaud & Perret-Liaudet): sweeps, time histories, periodic branches, studies."""
 
 
 def fail(message: str, status: int = EXIT_USAGE) -> None:
@@ -32,7 +33,7 @@ def fail(message: str, status: int = EXIT_USAGE) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """Entry point: run the group; every user error ends in one line and exit 2."""
+    """Entry point: run the group; every error ends in one line and its exit status."""
     from . import commands  # noqa: F401  (registers the core commands)
 
     _register_optional()
@@ -42,20 +43,25 @@ def main(argv: Sequence[str] | None = None) -> None:
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except click.exceptions.Abort as exc:  # click wraps KeyboardInterrupt in Abort
-        cause = exc.__cause__
-        fail("interrupted", 128 + cause.signal_number if isinstance(cause, Interrupted)
-             else EXIT_INTERRUPTED)  # fmt: skip
+        fail("interrupted", _interrupted_status(exc.__cause__))
     except click.ClickException as exc:
         fail(exc.format_message().replace("\n", " "), exc.exit_code)
     except HertzsweepError as exc:
         fail(str(exc))
+    except Failed as exc:
+        fail(str(exc), EXIT_FAILED)
+    except Stopped as exc:
+        fail(str(exc), 128 + exc.signal_number)
     except OSError as exc:  # a file that cannot be read or written: no traceback
         where = f"{exc.filename}: " if exc.filename else ""
         fail(f"{where}{exc.strerror or exc}")
-    except Interrupted as exc:
-        fail("interrupted", 128 + exc.signal_number)
-    except KeyboardInterrupt:
-        fail("interrupted", EXIT_INTERRUPTED)
+    except KeyboardInterrupt as exc:
+        fail("interrupted", _interrupted_status(exc))
+
+
+def _interrupted_status(exc: BaseException | None) -> int:
+    """128 + the signal that stopped a run (SIGINT when not known)."""
+    return 128 + exc.signal_number if isinstance(exc, Interrupted) else EXIT_INTERRUPTED
 
 
 def _terminate(signal_number: int, frame: object) -> None:
@@ -64,10 +70,10 @@ def _terminate(signal_number: int, frame: object) -> None:
 
 
 def _register_optional() -> None:
-    """Import the feature command modules that exist (each registers its command)."""
+    """Import the command modules that exist (each registers its command)."""
     import importlib
 
-    for name in ("trace", "branch", "study", "accuracy", "plot", "bench"):
+    for name in ("trace", "branch", "study", "accuracy", "plot", "bench", "compare", "paper"):
         try:
             importlib.import_module(f"{__name__}.{name}")
         except ModuleNotFoundError as exc:

@@ -2,53 +2,14 @@
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import click
-import xarray as xr
-from matplotlib.figure import Figure
 
 from ..errors import HertzsweepError
-from ..output.dataset import atomic_path, open_dataset
-from ..output.plot import VIEWS, figure
-from . import cli
+from ..output.kinds import KINDS, figure
+from .group import cli
+from .options import read_dataset
 
-FORMATS = ("png", "pdf", "svg")
-
-
-def figure_format(path: str | os.PathLike) -> str:
-    """The format named by a figure file's extension (one of :data:`FORMATS`)."""
-    suffix = Path(path).suffix.lower().lstrip(".")
-    if suffix not in FORMATS:
-        raise HertzsweepError(
-            f"-o: {str(path)!r}: unknown figure extension {('.' + suffix) if suffix else '(none)'}"
-            f" (use {', '.join('.' + f for f in FORMATS)})"
-        )
-    return suffix
-
-
-def read_dataset(path: str | os.PathLike) -> xr.Dataset:
-    """A hertzsweep netCDF file, or one clear error."""
-    try:
-        return open_dataset(path)
-    except FileNotFoundError:
-        raise
-    except (OSError, ValueError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise HertzsweepError(f"{path}: cannot read it as netCDF ({reason})") from None
-
-
-def write_figure(fig: Figure, path: str | os.PathLike) -> Path:
-    """Save a figure in the format of its extension, atomically: complete or absent."""
-    path = Path(path)
-    fmt = figure_format(path)
-    with atomic_path(path, suffix=f".{fmt}") as tmp:
-        fig.savefig(tmp, format=fmt)
-    return path
-
-
-VIEW_HELP = "; ".join(f"{kind}: {', '.join(views)}" for kind, views in VIEWS.items())
+VIEW_HELP = "; ".join(f"{kind.name}: {', '.join(kind.views)}" for kind in KINDS.values())
 
 
 @cli.command("plot")
@@ -93,15 +54,20 @@ def plot_command(
 ) -> None:
     """The paper-style figure of a sweep, trace, branch, study or accuracy dataset,
     picked by its hertzsweep_kind attribute."""
+    from ..output.plot import figure_format, write_figure
+
     figure_format(output)
     ds = read_dataset(input_file)
     extra = read_dataset(overlay) if overlay else None
     try:
         fig = figure(ds, view, harmonics or None, sigmas or None, extra)
     except HertzsweepError as exc:
-        raise HertzsweepError(f"{input_file}: {exc}") from None
+        raise exc.with_context(input_file) from None
     except (KeyError, AttributeError) as exc:  # a variable or coordinate the kind needs
         kind = ds.attrs.get("hertzsweep_kind")
         raise HertzsweepError(f"{input_file}: not a complete {kind} dataset ({exc})") from None
     write_figure(fig, output)
     click.echo(f"wrote {output}")
+
+
+__all__ = ["plot_command"]

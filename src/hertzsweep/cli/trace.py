@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import click
 
-from ..drivers.trace import BRANCHES, DEFAULT_PERIODS, run_trace, trace_count
-from ..output.dataset import trace_dataset, write_atomic
-from . import cli
-from .options import output_option, quiet_option, read_scene, scene_argument, set_option
+from ..drivers.trace import BRANCHES, DEFAULT_PERIODS, trace_count
+from ..output.kinds import KINDS
+from . import options
+from .group import cli
 from .progress import progress_bar
+
+TRACE = KINDS["trace"]
 
 
 @cli.command("trace")
-@scene_argument
+@options.scene_argument
 @click.option(
     "-w",
     "--frequency",
@@ -22,7 +24,7 @@ from .progress import progress_bar
     metavar="W",
     help="Frequency ratio w = f/f0 to record at.",
 )
-@output_option
+@options.output_option
 @click.option(
     "--periods",
     type=int,
@@ -43,8 +45,8 @@ from .progress import progress_bar
     default=None,
     help="Samples kept per period, a divisor of solver.steps_per_period [default: every step].",
 )
-@set_option
-@quiet_option
+@options.set_option
+@options.quiet_option
 def trace_command(
     scene_file: str,
     frequency_ratio: float,
@@ -57,40 +59,17 @@ def trace_command(
 ) -> None:
     """Settled time history of one frequency for every sigma: q, q', N/F_s and contact,
     the spectrum of N/F_s, and every flight; prints one line per sigma."""
-    scene = read_scene(scene_file, overrides)
+    scene = options.read_scene(scene_file, overrides)
     with progress_bar(trace_count(scene, frequency_ratio, branch), "trace", not quiet) as bar:
-        result = run_trace(scene, frequency_ratio, periods, branch, samples_per_period, bar)
-    ds = trace_dataset(result, scene)
-    write_atomic(ds, output)
-    for line in summary_lines(ds):
-        click.echo(line)
-    click.echo(f"wrote {output}")
-
-
-def summary_lines(ds) -> list[str]:
-    """One line per sigma: harmonics, force extremes, contact loss and flights."""
-    lines = []
-    for sigma in ds.sigma.values:
-        sel = ds.sel(sigma=sigma)
-        harmonics = " ".join(
-            f"H{int(k)} {float(a):.4f}"
-            for k, a in zip(ds.harmonic.values, sel.amplitude.values, strict=True)
+        result = TRACE.run(
+            scene,
+            frequency_ratio,
+            periods=periods,
+            branch=branch,
+            samples_per_period=samples_per_period,
+            progress=bar,
         )
-        count = int(sel.flight_count)
-        flights = (
-            f"{count} flight(s), longest {float(sel.flight_time) * 1e3:.3f} ms"
-            if count
-            else "no flight"
-        )
-        state = "settled" if int(sel.settled) else "NOT settled"
-        if not int(sel.periodic):
-            state += ", not periodic"
-        lines.append(
-            f"sigma {sigma:.4g} w {ds.attrs['frequency_ratio']:.4f} {ds.attrs['branch']}: "
-            f"{harmonics}  N max {float(sel.force_max):.3f} min {float(sel.force_min):.3f}  "
-            f"loss {float(sel.contact_loss_fraction):.3f}  {flights} ({state})"
-        )
-    return lines
+    options.write_result(TRACE, result, scene, output)
 
 
-__all__ = ["summary_lines", "trace_command"]
+__all__ = ["trace_command"]

@@ -7,8 +7,9 @@ Eq. (8) and (11) of the paper::
 ``viscous``: ``f_d = 2 zeta q'`` at all times (eq. 8).
 ``contact``: ``f_d = 2 zeta d^n H(d) q'``, only in contact (eq. 11), any n >= 0.
 
-The damping force is ``c(q) q'``; the compiled kernels take the law as an integer code
-(:data:`LAW_CODES`) so that the paper's exponents 0, 1/2, 1, 3/2 cost no ``pow``.
+The damping force is ``c(q) q'``; the compiled kernels write the laws once, as data
+(:mod:`hertzsweep.kernels.laws`). This module holds what needs no compiler: the stability
+limit of the explicit scheme, checked before any run.
 
 Stability of the explicit scheme (central difference, undamped): ``h omega_max < 2``
 with ``omega_max^2 = dR/dq = d^(1/2)`` at the largest compression the scene reaches.
@@ -18,71 +19,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
-from .config import DampingConfig, Scene
-
-VISCOUS = 0  # 2 zeta always
-CONTACT_N0 = 1  # 2 zeta H(d)
-CONTACT_N05 = 2  # 2 zeta sqrt(d) H(d)
-CONTACT_N1 = 3  # 2 zeta d H(d)
-CONTACT_N15 = 4  # 2 zeta d^(3/2) H(d)
-CONTACT_GENERAL = 5  # 2 zeta d^n H(d), pow per step
-_SPECIAL_EXPONENTS = {0.0: CONTACT_N0, 0.5: CONTACT_N05, 1.0: CONTACT_N1, 1.5: CONTACT_N15}
-
-
-def law_code(damping: DampingConfig) -> int:
-    """The integer code of a damping law for the compiled kernels."""
-    if damping.law == "viscous":
-        return VISCOUS
-    return _SPECIAL_EXPONENTS.get(float(damping.exponent), CONTACT_GENERAL)
-
-
-@njit(cache=True, inline="always")
-def contact_terms(q: float, zeta: float, law: int, exponent: float):
-    """``(d, sqrt(d), R(q) - 1, c(q))``: compression, its root, excess restoring force
-    and damping coefficient ``f_d = c q'`` (eq. 8, 11). ``sqrt(d)`` is ``omega^2``, the
-    local tangent stiffness, used for the stability check; it is 0 out of contact."""
-    d = 1.0 + q * (2.0 / 3.0)
-    if d > 0.0:
-        sd = math.sqrt(d)
-        rm1 = d * sd - 1.0
-        if law == VISCOUS or law == CONTACT_N0:
-            c = 2.0 * zeta
-        elif law == CONTACT_N15:
-            c = 2.0 * zeta * d * sd
-        elif law == CONTACT_N1:
-            c = 2.0 * zeta * d
-        elif law == CONTACT_N05:
-            c = 2.0 * zeta * sd
-        else:
-            c = 2.0 * zeta * d**exponent
-    else:
-        sd = 0.0
-        rm1 = -1.0
-        c = 2.0 * zeta if law == VISCOUS else 0.0
-    return d, sd, rm1, c
-
-
-@njit(cache=True, inline="always")
-def contact_derivatives(q: float, zeta: float, law: int, exponent: float):
-    """``(dR/dq, dc/dq)`` for the tangent-linear scheme (zero out of contact; the jump of
-    c at d = 0 for n = 0 has measure zero along a trajectory)."""
-    d = 1.0 + q * (2.0 / 3.0)
-    if d <= 0.0:
-        return 0.0, 0.0
-    sd = math.sqrt(d)
-    if law == VISCOUS or law == CONTACT_N0:
-        dc = 0.0
-    elif law == CONTACT_N15:
-        dc = 2.0 * zeta * 1.5 * sd * (2.0 / 3.0)
-    elif law == CONTACT_N1:
-        dc = 2.0 * zeta * (2.0 / 3.0)
-    elif law == CONTACT_N05:
-        dc = 2.0 * zeta * 0.5 / sd * (2.0 / 3.0)
-    else:
-        dc = 2.0 * zeta * exponent * d ** (exponent - 1.0) * (2.0 / 3.0)
-    return sd, dc
+from .config import Scene
 
 
 # --------------------------------------------------------------------------- stability

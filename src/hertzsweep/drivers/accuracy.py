@@ -1,7 +1,7 @@
 """The speed/accuracy trade of the solver settings, measured on the user's own scene.
 
-A *ladder* of settings is run with :func:`hertzsweep.sweep.run_sweep` on copies of the
-scene that differ in one setting each:
+A *ladder* of settings is run with :func:`hertzsweep.drivers.sweep.run_sweep` on copies
+of the scene that differ in one setting each:
 
 - steps per period N (default 32 .. 2048, powers of 2) at the scene's settling;
 - settling at the scene's N: fixed 50, 100, 300, 1000 periods, and ``"auto"`` with
@@ -27,10 +27,6 @@ Cost is counted in integration steps (:attr:`SweepResult.steps`): deterministic 
 machine-independent, it is what the Pareto front and the recommendation use. A Newton
 period of shooting counts as N steps, although it also propagates the tangent map, and
 Newton's per-dwell overhead is not counted: compare the wall times as well.
-
-Also here, for the stability checks: the modified (shadow) energy that the undamped,
-unforced scheme conserves (:func:`modified_energy`) and the exact steady-state
-response of the scheme to a sine in the linear limit (:func:`linear_response`).
 """
 
 from __future__ import annotations
@@ -47,12 +43,13 @@ from ..core.model import stability_limit
 from ..errors import ConfigError, HertzsweepError
 from .sweep import SweepResult, run_sweep
 
-DEFAULT_STEPS = (32, 64, 128, 256, 512, 1024, 2048)
-DEFAULT_SETTLE: tuple[int | str, ...] = (
-    50, 100, 300, 1000, "auto:1e-2", "auto:1e-3", "auto:1e-4", "auto:1e-5", "auto:1e-6",
-)  # fmt: skip
-QUICK_STEPS = (64, 128, 256, 512, 1024)
-QUICK_SETTLE: tuple[int | str, ...] = (100, 300, 1000, "auto:1e-3", "auto:1e-5")
+DEFAULT_STEPS = (32, 64, 128, 256, 512, 1024, 2048)  # powers of 2: each halving of h is a rung
+DEFAULT_SETTLE: tuple[int | str, ...] = (  # fixed settling around the default 300 periods,
+    *(50, 100, 300, 1000),  # then "auto" from loose to tight
+    *(f"auto:1e-{k}" for k in range(2, 7)),
+)
+QUICK_STEPS = (64, 128, 256, 512, 1024)  # --quick: the steps axis around the default 256
+QUICK_SETTLE: tuple[int | str, ...] = (100, 300, 1000, "auto:1e-3", "auto:1e-5")  # and settling
 FALLBACK_REFERENCE_SETTLE = 1000  # [periods] when the ladder has no fixed settling
 RICHARDSON_ORDER = 2  # the central-difference scheme where the force is smooth
 LOW_ORDER_MARGIN = 3.0  # (2^2 - 1) / (2^1 - 1): the order-1 Richardson estimate over order 2's,
@@ -217,8 +214,9 @@ def build_ladder(
     shooting : bool
         Include the shooting rungs, one per N.
 
-    Rungs at or below the scene's stability limit (:func:`hertzsweep.model.stability_limit`)
-    are left out with a note; the reference must be above it.
+    Rungs at or below the scene's stability limit
+    (:func:`hertzsweep.core.model.stability_limit`) are left out with a note; the
+    reference must be above it.
     """
     steps = tuple(sorted(set(steps or (QUICK_STEPS if quick else DEFAULT_STEPS))))
     raw_settle = settle if settle is not None else (QUICK_SETTLE if quick else DEFAULT_SETTLE)
@@ -241,10 +239,11 @@ def build_ladder(
     partner = Setting(finest // 2, longest) if finest // 2 >= 2 else None
     limit = stability_limit(scene)
     if reference.steps_per_period <= limit:
-        raise ConfigError(
-            "--steps", "", f"the finest rung N={finest} is at or below the stability "
-            f"limit {limit:.1f} steps per period; give finer steps"
-        )  # fmt: skip
+        reason = (
+            f"the finest rung N={finest} is at or below the stability limit {limit:.1f} "
+            "steps per period; give finer steps"
+        )
+        raise ConfigError("--steps", "", reason)
     settings: list[Setting] = []
     for setting in [*candidates, partner, reference]:
         if setting is None or setting in settings:
@@ -285,10 +284,17 @@ def _accuracy_scene(scene: Scene) -> Scene:
 def _warm_up(scene: Scene, methods: set[str]) -> None:
     """One short dwell per method, so that loading the compiled kernels is not charged
     to the first rung."""
+    first = scene.sweep.start
+    one_dwell = replace(
+        scene.sweep,
+        stop=first,
+        directions=scene.sweep.directions[:1],
+        settle_periods=1,
+        measure_periods=2,
+    )
+    excitation = replace(scene.excitation, sigma=scene.excitation.sigma[:1])
     for method in sorted(methods):
-        sweep = replace(scene.sweep, stop=scene.sweep.start, directions=scene.sweep.directions[:1],
-                        settle_periods=1, measure_periods=2, steady_state=method)  # fmt: skip
-        excitation = replace(scene.excitation, sigma=scene.excitation.sigma[:1])
+        sweep = replace(one_dwell, steady_state=method)
         try:
             run_sweep(replace(scene, sweep=sweep, excitation=excitation))
         except HertzsweepError:
@@ -586,81 +592,23 @@ def _settle_check(rungs: list[Rung]) -> tuple[Errors | None, str]:
 
 def measure_accuracy(
     scene: Scene,
-    steps: Sequence[int] | None = None,
-    settle: Sequence | None = None,
-    quick: bool = False,
+    ladder: Ladder | None = None,
     target: float | None = None,
     progress: Progress | None = None,
-    shooting: bool = True,
 ) -> AccuracyReport:
-    """Build the ladder, run it and assess it (see :func:`build_ladder`, :func:`assess`)."""
-    ladder = build_ladder(scene, steps, settle, quick, shooting)
-    rungs, notes = run_ladder(scene, ladder, progress)
-    return assess(rungs, ladder, target, notes)
-
-
-# --------------------------------------------------------------------------- stability
-def potential(q: np.ndarray) -> np.ndarray:
-    """Potential of the excess restoring force ``R(q) - 1`` (eq. 8), zero at rest:
-    ``V(q) = 3/5 (d^(5/2) - 1) - q`` in contact, continued linearly in flight."""
-    q = np.asarray(q, float)
-    d = np.maximum(1.0 + q * (2.0 / 3.0), 0.0)
-    return 0.6 * (d**2.5 - 1.0) - q
-
-
-def modified_energy(q: np.ndarray, velocity: np.ndarray, h: float) -> np.ndarray:
-    """The energy the undamped, unforced central-difference scheme conserves.
+    """Run a ladder of settings on the scene and assess it.
 
     Parameters
     ----------
-    q : array
-        Displacements q[n].
-    velocity : array
-        Centred velocities ``(q[n+1] - q[n-1]) / (2 h)``, as the kernels record them.
-    h : float
-        The step in tau.
-
-    Notes
-    -----
-    Unforced and undamped, the scheme ``q[n+1] - 2 q[n] + q[n-1] = -h^2 V'(q[n])`` is the
-    Stormer-Verlet method, with ``p[n]`` the centred velocity. A symplectic method
-    conserves a modified Hamiltonian; to order h^2 it is (Hairer, Lubich & Wanner,
-    *Geometric Numerical Integration*, IX.8)::
-
-        H~ = p^2/2 + V(q) + h^2 (V''(q) p^2 / 12 - V'(q)^2 / 24) + O(h^4)
-
-    with ``V' = d^(3/2) - 1``, ``V'' = d^(1/2)`` (in contact). The plain energy
-    ``p^2/2 + V`` oscillates by O(h^2) around it without drift; H~ varies only by O(h^4).
-    For the linear spring (V = q^2/2) the scheme conserves ``p^2/2 + (1 - h^2/4) q^2/2``
-    exactly, which is H~ / (1 + h^2/6) to that order. Valid while in contact: the expansion
-    needs V smooth along the orbit.
+    scene : Scene
+        The scene whose solver settings are measured.
+    ladder : Ladder, optional
+        The settings to run (:func:`build_ladder`; default the scene's full ladder).
+    target : float, optional
+        The H1 error to recommend the cheapest setting for (:func:`assess`).
+    progress : callable, optional
+        Called with 1 after each rung.
     """
-    q, p = np.asarray(q, float), np.asarray(velocity, float)
-    d = np.maximum(1.0 + q * (2.0 / 3.0), 0.0)
-    force = d**1.5 - 1.0  # V'
-    stiffness = np.sqrt(d)  # V''
-    return 0.5 * p**2 + potential(q) + h * h * (stiffness * p**2 / 12.0 - force**2 / 24.0)
-
-
-def linear_response(
-    frequency_ratio: float | np.ndarray,
-    zeta: float,
-    steps_per_period: int | None = None,
-) -> np.ndarray:
-    """Complex response of N/F_s - 1 to ``sin(w tau)`` in the linear limit (sigma -> 0,
-    viscous damping): amplitude ``abs``, phase lag ``-angle``.
-
-    Continuous: ``(1 + 2 i zeta w) / (1 - w^2 + 2 i zeta w)``. With ``steps_per_period``
-    N, the exact steady state of the scheme instead (h = 2 pi / (w N)), from
-    ``q[n] = Q exp(i w h n)``::
-
-        (1 + 2 i zeta s / h) / (1 - 4 sin^2(w h / 2) / h^2 + 2 i zeta s / h),  s = sin(w h)
-
-    (the kernels' N/F_s uses the centred velocity ``(q[n+1] - q[n-1]) / 2h``).
-    """
-    w = np.asarray(frequency_ratio, float)
-    if steps_per_period is None:
-        return (1 + 2j * zeta * w) / (1 - w**2 + 2j * zeta * w)
-    h = 2.0 * np.pi / (w * steps_per_period)
-    damping = 2j * zeta * np.sin(w * h) / h
-    return (1 + damping) / (1 - 4.0 * np.sin(0.5 * w * h) ** 2 / h**2 + damping)
+    ladder = ladder if ladder is not None else build_ladder(scene)
+    rungs, notes = run_ladder(scene, ladder, progress)
+    return assess(rungs, ladder, target, notes)

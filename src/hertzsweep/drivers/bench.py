@@ -1,35 +1,42 @@
 """The project's own speed figures (``hertzsweep bench``); not timed tests.
 
-Figures, each against a floor named in the issues:
+Every ratio is measured in the same run, never typed in:
 
-- ns per integration step of the compiled loop on one trajectory (floor: a hand-written C
-  loop of the same scheme, 15 ns per step on the 2-core reference machine);
+- ns per integration step of the compiled loop on one trajectory, for each damping law,
+  against the *floor*: the bare recurrence of the viscous update (state in
+  ``d = 1 + 2q/3``, a square root then one FMA per step, nothing else) compiled the same
+  way on this CPU;
+- ns per trajectory-step of many trajectories in lockstep (8 and 16), against the bare
+  recurrence vectorised across 16 trajectories (the throughput floor of the CPU's vector
+  square root);
 - wall time of a 121-point up + down sweep (w 0.90 to 1.05, 256 steps per period,
-  300 settle + 20 measured periods, sigma = 1 %);
-- the same sweep with ``scipy.integrate.solve_ivp`` (DOP853, the loosest tolerance for
-  which H1 agrees with a tight reference to 1e-4), measured on a few frequencies and
-  extrapolated to the whole sweep, and the ratio (target: at least 100x);
-- when present: shooting-accelerated vs settled sweep (steps and time), and batched
-  trajectories (ns per trajectory-step; floor 2.9 ns for 8 trajectories in C).
+  300 settle + 20 measured periods, sigma = 1 %), and the same sweep with
+  ``scipy.integrate.solve_ivp`` (DOP853, the loosest tolerance for which H1 agrees with a
+  tight reference to 1e-4), measured on a few frequencies and extrapolated;
+- shooting-accelerated vs settled sweep (steps and time, the same jumps).
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from numba import njit
 from scipy.integrate import solve_ivp
 
 from ..core.config import Scene, scene_from_dict
 from ..core.lockin import demodulate
-from ..core.model import VISCOUS
-from ..kernels import integrators
+from ..core.model import check_stability
+from ..kernels import integrate, scheme
+from ..kernels.laws import make_law
+from ..kernels.scheme import fma
+from .batch import run_sweep_batched
+from .oscillator import drive
 from .sweep import run_sweep
 
-C_FLOOR_NS = 15.0  # hand-written C loop of the same scheme, one trajectory (issue)
-C_BATCH_FLOOR_NS = 2.9  # hand-written C loop, 8 trajectories together (issue)
 PAPER_RIG = {
     "ball_radius": 12.7e-3,
     "youngs_modulus": 210e9,
@@ -37,50 +44,164 @@ PAPER_RIG = {
     "mass": 11.4,
     "static_load": 110.0,
 }
+LAWS = {  # figure name -> (law, exponent)
+    "viscous": ("viscous", 1.5),
+    "contact_n1.5": ("contact", 1.5),
+    "contact_general_n": ("contact", 1.3),
+}
 
 
 def bench_scene(points: int = 121) -> Scene:
     """The benchmark sweep: sigma = 1 %, zeta = 0.45 % viscous, w 0.90..1.05."""
-    step = 0.15 / (points - 1)
     return scene_from_dict(
         {
             "rig": dict(PAPER_RIG),
             "damping": {"ratio": 0.0045, "law": "viscous"},
             "excitation": {"sigma": [0.01]},
-            "sweep": {"start": 0.90, "stop": 1.05, "step": step, "settle_periods": 300,
-                      "measure_periods": 20},
+            "sweep": {
+                "start": 0.90,
+                "stop": 1.05,
+                "step": 0.15 / (points - 1),
+                "settle_periods": 300,
+                "measure_periods": 20,
+            },
             "solver": {"steps_per_period": 256},
             "lockin": {"harmonics": [1, 2]},
         },
         source="<bench>",
-    )  # fmt: skip
+    )
 
 
-def ns_per_step(law: int = VISCOUS, exponent: float = 1.5, steps: int = 20_000_000) -> float:
-    """Best of 3 runs of the compiled loop on one trajectory, ns per step."""
-    n = 256
-    sin_table, _ = integrators.period_tables(n)
-    h = integrators.step_size(0.97, n)
-    periods = max(1, steps // n)
-    integrators.advance(0.0, 0.0, h, 0.01, sin_table, 1, 0.0045, law, exponent)  # compile
+def _best(run, repeats: int = 3) -> float:
+    """Best wall time of ``repeats`` calls of ``run()`` [s]."""
     best = np.inf
-    for _ in range(3):
+    for _ in range(repeats):
         t0 = time.perf_counter()
-        integrators.advance(0.0, 0.0, h, 0.01, sin_table, periods, 0.0045, law, exponent)
+        run()
         best = min(best, time.perf_counter() - t0)
-    return best / (periods * n) * 1e9
+    return best
+
+
+# --------------------------------------------------------------------------- floors
+@njit(cache=True, error_model="numpy")
+def _bare_chain(d, a, b, k, loads, periods):
+    """The viscous update and nothing else: ``d = fma(-(k d), sqrt(d), fma(d, a, k F - b d_))``."""
+    d_prev = d
+    for _ in range(periods):
+        for j in range(loads.shape[0]):
+            d_next = fma(-(k * d), math.sqrt(d), fma(d, a, k * loads[j] - d_prev * b))
+            d_prev = d
+            d = d_next
+    return d
+
+
+@njit(cache=True, error_model="numpy")
+def _bare_lanes(d, a, b, k, loads, periods):
+    """:func:`_bare_chain` for T trajectories, trajectory innermost (vectorised): the
+    throughput floor of the update across trajectories."""
+    d_prev = d.copy()
+    for _ in range(periods):
+        for j in range(loads.shape[0]):
+            load = loads[j]
+            for t in range(d.shape[0]):
+                x = d[t]
+                kt = k[t]
+                d[t] = fma(-(kt * x), math.sqrt(x), fma(x, a[t], kt * load - d_prev[t] * b[t]))
+                d_prev[t] = x
+    return d
+
+
+def _chain_constants(count: int):
+    n = 256
+    law = make_law("viscous", 0.0045, 1.5)
+    step = scheme.make_step(law, scheme.step_size(0.97, n))
+    a, b, k = step.fixed
+    loads = 1.0 + 0.01 * scheme.period_tables(n)[0]
+    return (np.full(count, a), np.full(count, b), np.full(count, k)), loads
+
+
+def floor_ns_per_step(steps: int) -> float:
+    """ns per step of :func:`_bare_chain` (best of 3): the latency floor of the update."""
+    (a, b, k), loads = _chain_constants(1)
+    periods = max(1, steps // loads.size)
+    _bare_chain(1.0, a[0], b[0], k[0], loads, 1)
+    return (
+        _best(lambda: _bare_chain(1.0, a[0], b[0], k[0], loads, periods))
+        / (periods * loads.size)
+        * 1e9
+    )
+
+
+def floor_ns_per_trajectory_step(count: int, steps: int) -> float:
+    """ns per trajectory-step of :func:`_bare_lanes` over ``count`` trajectories."""
+    (a, b, k), loads = _chain_constants(count)
+    periods = max(1, steps // (loads.size * count))
+    _bare_lanes(np.ones(count), a, b, k, loads, 1)
+    seconds = _best(lambda: _bare_lanes(np.ones(count), a, b, k, loads, periods))
+    return seconds / (periods * loads.size * count) * 1e9
+
+
+# --------------------------------------------------------------------------- kernels
+def ns_per_step(law: str, exponent: float, steps: int) -> float:
+    """Best of 3 runs of :func:`~hertzsweep.kernels.integrate.advance`, ns per step."""
+    scene = bench_scene(2)
+    scene = replace(scene, damping=replace(scene.damping, law=law, exponent=exponent))
+    n = 256
+    record = make_law(law, 0.0045, exponent)
+    h = scheme.step_size(0.97, n)
+    inputs = drive(scene, 0.01)
+    periods = max(1, steps // n)
+    integrate.advance(0.0, 0.0, h, record, inputs, 1)
+    seconds = _best(lambda: integrate.advance(0.0, 0.0, h, record, inputs, periods))
+    return seconds / (periods * n) * 1e9
+
+
+def batch_scene(trajectories: int, law: str = "contact") -> Scene:
+    """The batch benchmark: ``trajectories`` down sweeps of the Figure 15 kind (zeta =
+    1 %, n = 3/2) from w = 1.00 to 0.90 in 6 dwells, sigma spread from 0.2 % to 8 % (those
+    above about 3 % lose contact), 256 steps per period, 300 settling + 20 measured
+    periods per dwell."""
+    sigma = np.round(np.geomspace(0.002, 0.08, trajectories), 6).tolist()
+    return scene_from_dict(
+        {
+            "rig": dict(PAPER_RIG),
+            "damping": {"ratio": 0.01, "law": law, "exponent": 1.5},
+            "excitation": {"sigma": sigma},
+            "sweep": {
+                "start": 0.90,
+                "stop": 1.00,
+                "step": 0.02,
+                "directions": ["down"],
+                "settle_periods": 300,
+                "measure_periods": 20,
+            },
+            "solver": {"steps_per_period": 256},
+        },
+        source="<bench>",
+    )
+
+
+def bench_batch(counts: tuple[int, ...] = (1, 8, 16), repeats: int = 3) -> dict[str, Any]:
+    """ns per trajectory-step of lockstep sweeps (best of ``repeats``) for 1, 8 and 16
+    trajectories, viscous and contact n = 3/2, readings and jumps included."""
+    out: dict[str, Any] = {}
+    for law in ("viscous", "contact"):
+        for count in counts:
+            scene = batch_scene(count, law)
+            check_stability(scene)
+            small = replace(scene, sweep=replace(scene.sweep, start=scene.sweep.stop))
+            run_sweep_batched(small)  # compile (or load the cache)
+            steps = run_sweep_batched(small).steps * scene.sweep.frequency_ratios.size
+            seconds = _best(lambda scene=scene: run_sweep_batched(scene), repeats)
+            out[f"{law}_ns_per_trajectory_step_{count}"] = seconds / steps * 1e9
+    return out
 
 
 def sweep_wall_time(scene: Scene) -> tuple[float, int]:
     """Wall time [s] (best of 2) and integration steps of the scene's sweep."""
     run_sweep(replace(scene, sweep=replace(scene.sweep, stop=scene.sweep.start)))  # compile
-    best, steps = np.inf, 0
-    for _ in range(2):
-        t0 = time.perf_counter()
-        result = run_sweep(scene)
-        best = min(best, time.perf_counter() - t0)
-        steps = result.steps
-    return best, steps
+    steps = run_sweep(scene).steps
+    return _best(lambda: run_sweep(scene), 2), steps
 
 
 def _ivp_dwell(w, sigma, zeta, y0, periods, measure, rtol):
@@ -94,8 +215,15 @@ def _ivp_dwell(w, sigma, zeta, y0, periods, measure, rtol):
     period = 2.0 * np.pi / w
     samples = 256
     t_eval = period * (periods - measure + np.arange(measure * samples) / samples)
-    sol = solve_ivp(rhs, (0.0, periods * period), y0, method="DOP853", rtol=rtol,
-                    atol=rtol * 1e-2, t_eval=t_eval)  # fmt: skip
+    sol = solve_ivp(
+        rhs,
+        (0.0, periods * period),
+        y0,
+        method="DOP853",
+        rtol=rtol,
+        atol=rtol * 1e-2,
+        t_eval=t_eval,
+    )
     q, v = sol.y
     d = np.maximum(1.0 + 2.0 * q / 3.0, 0.0)
     force = d * np.sqrt(d) + 2.0 * zeta * v
@@ -126,19 +254,77 @@ def solve_ivp_comparison(scene: Scene, frequencies=(0.93, 0.97, 1.01)) -> dict[s
         _ivp_dwell(w, sigma, zeta, start, settle + measure, measure, chosen)
         times.append(time.perf_counter() - t0)
     dwells = len(scene.sweep.directions) * scene.sweep.frequency_ratios.size
-    return {"rtol": chosen, "seconds_per_dwell": float(np.mean(times)),
-            "extrapolated_sweep_seconds": float(np.mean(times) * dwells)}  # fmt: skip
+    return {
+        "rtol": chosen,
+        "seconds_per_dwell": float(np.mean(times)),
+        "extrapolated_sweep_seconds": float(np.mean(times) * dwells),
+    }
+
+
+def compare_with_settle(scene: Scene) -> dict:
+    """The same sweeps by long settling and by shooting: cost and agreement.
+
+    Returns
+    -------
+    dict
+        ``settle_steps``, ``shooting_steps`` (integration steps, tangent steps included),
+        ``step_ratio`` (settle / shooting), ``settle_seconds``, ``shooting_seconds``
+        (wall time, kernels compiled beforehand), ``max_h1_difference`` (largest
+        ``|H1_shooting - H1_settle|`` over the grid, in units of F_s),
+        ``max_h1_relative_difference``, ``max_h1_difference_settled`` (the same over the
+        dwells the settled sweep reports settled), ``settle_unsettled`` (the others: where
+        ``settle_periods`` left a transient, the first dwells after a jump),
+        ``jump_frequency_ratio_settle`` and
+        ``jump_frequency_ratio_shooting`` (lists over direction and sigma), ``dwells``,
+        ``shooting_unsettled`` (dwells where no stable period-1 orbit was found).
+    """
+    check_stability(scene)
+    small = replace(scene, sweep=replace(scene.sweep, stop=scene.sweep.start))
+    results = {}
+    seconds = {}
+    for method in ("settle", "shooting"):
+        variant = replace(scene, sweep=replace(scene.sweep, steady_state=method))
+        run_sweep(replace(small, sweep=replace(small.sweep, steady_state=method)))  # compile
+        start = time.perf_counter()
+        results[method] = run_sweep(variant)
+        seconds[method] = time.perf_counter() - start
+    settled, shot = results["settle"], results["shooting"]
+    h1_settle = settled.amplitude[..., 0]
+    h1_shooting = shot.amplitude[..., 0]
+    difference = np.abs(h1_shooting - h1_settle)
+    return {
+        "settle_steps": int(settled.steps),
+        "shooting_steps": int(shot.steps),
+        "step_ratio": settled.steps / max(shot.steps, 1),
+        "settle_seconds": seconds["settle"],
+        "shooting_seconds": seconds["shooting"],
+        "time_ratio": seconds["settle"] / max(seconds["shooting"], 1e-12),
+        "max_h1_difference": float(np.max(difference)),
+        "max_h1_relative_difference": float(np.max(difference / np.abs(h1_settle))),
+        "max_h1_difference_settled": float(np.max(difference, where=settled.settled, initial=0)),
+        "settle_unsettled": int(np.sum(~settled.settled)),
+        "jump_frequency_ratio_settle": settled.jump_frequency_ratio.tolist(),
+        "jump_frequency_ratio_shooting": shot.jump_frequency_ratio.tolist(),
+        "dwells": int(h1_settle.size),
+        "shooting_unsettled": int(np.sum(~shot.settled)),
+    }
 
 
 def run_all(quick: bool = False) -> dict[str, Any]:
     """Every figure, as a flat dict (what ``hertzsweep bench --json`` prints)."""
     out: dict[str, Any] = {}
     steps = 2_000_000 if quick else 20_000_000
-    out["ns_per_step_viscous"] = ns_per_step(VISCOUS, steps=steps)
-    out["ns_per_step_contact_n1.5"] = ns_per_step(4, 1.5, steps=steps)
-    out["ns_per_step_contact_general_n"] = ns_per_step(5, 1.3, steps=steps)
-    out["c_floor_ns_per_step"] = C_FLOOR_NS
-    out["ratio_to_c_floor"] = out["ns_per_step_viscous"] / C_FLOOR_NS
+    out["floor_ns_per_step"] = floor_ns_per_step(steps)
+    for name, (law, exponent) in LAWS.items():
+        out[f"ns_per_step_{name}"] = ns_per_step(law, exponent, steps)
+    out["ratio_to_floor_viscous"] = out["ns_per_step_viscous"] / out["floor_ns_per_step"]
+    out["floor_ns_per_trajectory_step_16"] = floor_ns_per_trajectory_step(16, steps)
+    for key, value in bench_batch(repeats=1 if quick else 3).items():
+        out[f"batch_{key}"] = value
+    for law in ("viscous", "contact"):
+        out[f"batch_ratio_to_floor_{law}_16"] = (
+            out[f"batch_{law}_ns_per_trajectory_step_16"] / out["floor_ns_per_trajectory_step_16"]
+        )
     scene = bench_scene(31 if quick else 121)
     out["sweep_points"] = int(scene.sweep.frequency_ratios.size)
     out["sweep_dwells"] = out["sweep_points"] * len(scene.sweep.directions)
@@ -151,29 +337,9 @@ def run_all(quick: bool = False) -> dict[str, Any]:
     out["solve_ivp_seconds_per_dwell"] = ivp["seconds_per_dwell"]
     out["solve_ivp_sweep_seconds_extrapolated"] = ivp["extrapolated_sweep_seconds"]
     out["speedup_vs_solve_ivp"] = ivp["extrapolated_sweep_seconds"] / seconds
-    out.update(_optional_figures(scene, quick))
+    for key, value in compare_with_settle(bench_scene(16) if quick else scene).items():
+        out[f"shooting_{key}"] = value
     return out
 
 
-def _optional_figures(scene: Scene, quick: bool) -> dict[str, Any]:
-    """Figures of the shooting and batch layers."""
-    out: dict[str, Any] = {}
-    try:
-        from .shooting import compare_with_settle
-    except ImportError:
-        pass
-    else:
-        small = scene if not quick else bench_scene(16)
-        for key, value in compare_with_settle(small).items():
-            out[f"shooting_{key}"] = value
-    try:
-        from .batch import bench_batch
-    except ImportError:
-        pass
-    else:
-        for key, value in bench_batch().items():
-            out[f"batch_{key}"] = value
-        per = out.get("batch_ns_per_trajectory_step_8")
-        if per is not None:
-            out["batch_ratio_to_c_floor_8"] = per / C_BATCH_FLOOR_NS
-    return out
+__all__ = ["bench_batch", "compare_with_settle", "run_all"]

@@ -10,10 +10,11 @@ Jacobian ``G_y``, oriented by ``t_k . t_{k-1} > 0``), a step of length ``ds``
 
 with the exact Jacobian of the discrete map (:mod:`hertzsweep.tangent`). The step grows
 after easy corrections and shrinks after hard ones, on a failed corrector and where the
-tangent turns by more than :data:`MAX_TURN`; the arclength is measured in the scaled
-coordinates ``(z, w)``, so that amplitude and frequency weigh alike where the response
-is resonant. The augmented Jacobian ``[G_y; t_k]`` stays regular at folds, so the
-continuation goes round them and follows the unstable branch between.
+tangent turns by more than ``max_turn`` (every knob is a field of
+:class:`ContinuationParameters`); the arclength is measured in the scaled coordinates
+``(z, w)``, so that amplitude and frequency weigh alike where the response is resonant.
+The augmented Jacobian ``[G_y; t_k]`` stays regular at folds, so the continuation goes
+round them and follows the unstable branch between.
 
 Bifurcations of the T-periodic orbit are sign changes between consecutive points of
 
@@ -23,7 +24,7 @@ Bifurcations of the T-periodic orbit are sign changes between consecutive points
   multipliers are a complex pair,
 
 each located by Brent's method on the arclength from the previous point (every
-evaluation a corrected point on the branch), to :data:`LOCATION_TOLERANCE` in arclength:
+evaluation a corrected point on the branch), to ``location_tolerance`` in arclength:
 far below 1e-6 in w, since ``|dw/ds| <= 1`` (and w is stationary at a fold).
 
 Loss of contact. ``R' = sqrt(d)`` is continuous through ``d = 0``, so with viscous damping
@@ -49,6 +50,7 @@ from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import ConvergenceError, HertzsweepError
 from .oscillator import Oscillator, Reading
+from .readings import Readings
 from .shooting import (
     STABILITY_MARGIN,
     Evaluation,
@@ -60,36 +62,60 @@ from .shooting import (
 
 Progress = Callable[[int], None]
 
-CORRECTOR_TOLERANCE = 1e-10  # |G|_inf = |P(x) - x|_inf / Q at a point of the branch
-MAX_CORRECTOR_ITERATIONS = 7  # quadratic convergence needs 2-3 from a good predictor
-EASY_CORRECTOR = 3  # at most this many evaluations: the next step grows
-HARD_CORRECTOR = 5  # at least this many: the next step shrinks
-GROWTH = 1.5  # step factor after an easy correction
-SHRINK = 0.5  # step factor after a rejected step
-MAX_TURN = 0.15  # [rad] largest angle between consecutive tangents: keeps ~20 points on a
-# half turn (a fold), resolves the curve for plotting, and keeps two sign changes of a
-# test function from falling into one step
-MAX_STEP = 0.02  # largest step in the scaled coordinates (w, and amplitude over Q)
-FIRST_STEP = 0.005  # first arclength step (scaled coordinates), a quarter of MAX_STEP
-RESTART_STEP = FIRST_STEP * SHRINK**4  # the step after a bridged gap or a reversed tangent
-MIN_STEP = 1e-9  # below this the continuation stops there (end = "stalled")
-CORNER_STEP = 1e-6  # below this step a turn beyond MAX_TURN is accepted: a corner of the
-# branch where a time step crosses the contact boundary and the map is not differentiable
-# (contact damping with n < 1: c ~ d^n), not curvature (which would exceed 1e5)
-BRIDGE_STEP = 1e-7  # below this step a failing corrector means a gap of the branch: the map
-# is discontinuous where a step crosses d = 0 with contact damping n = 0 (c jumps by 2 zeta)
-BRIDGE_REACH = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 3e-2)  # along the tangent, tried in turn; the
-# gaps measured at sigma = 7 %, n = 0 span up to 3e-3 in w (reach 3e-2 with |t_w| ~ 0.1)
-BRIDGE_DISTANCE = 5e-2  # largest Newton move from the prediction accepted across a gap (in
-# z; measured 5e-3; distinct branches lie O(0.1 - 1) apart away from folds)
-RETRACE_SAGITTA = 0.05  # a point within this share of a chord from it lies on it (_retraces)
-FOLD_CLUSTER_SLOPE = 0.1  # |dw/ds| below which the branch counts as vertical between two
-# grazing folds (see _fold_clusters); measured at most 0.045 between the zigzags of n = 1,
-# sigma = 7 - 8 %, and 0.30 - 0.36 on the way into them
-MAX_POINTS = 20000  # a branch that has not reached the other end by then is cut there
-LOCATION_TOLERANCE = 1e-12  # arclength tolerance of Brent's method for bifurcations and ends
 POINTS_PER_PROGRESS = 100  # progress units per branch (per cent of the w span)
 KINDS = ("fold", "period-doubling", "neimark-sacker")
+
+
+@dataclass(frozen=True)
+class ContinuationParameters:
+    """The knobs of :func:`continue_branch`, each with its default and why that value.
+
+    Steps are arclengths in the scaled coordinates ``(z, w)`` (amplitude over Q, and w),
+    where amplitude and frequency weigh alike; "n" is the contact damping exponent
+    (``c ~ d^n``) and ``t_w = dw/ds`` the tangent's w component.
+    """
+
+    corrector_tolerance: float = 1e-10
+    """[1] |P(x) - x|_inf / Q accepted on the branch: 1e4 x the round-off of one period."""
+    max_corrector_iterations: int = 7
+    """Quadratic convergence takes 2-3 from a good predictor: more than 7, the step is too long."""
+    easy_corrector: int = 3
+    """At most this many map evaluations: the predictor was good, the next step grows."""
+    hard_corrector: int = 5
+    """At least this many: the predictor was poor (the branch bends), the next step shrinks."""
+    growth: float = 1.5
+    """Step factor after an easy correction: regains max_step from restart_step in 11 steps."""
+    shrink: float = 0.5
+    """Step factor after a rejected or hard step: from max_step to corner_step in 15 tries."""
+    max_turn: float = 0.15
+    """[rad] Largest turn of the tangent: ~20 points round a fold, one sign change per step."""
+    max_step: float = 0.02
+    """Largest step: a point every 0.02 in w or less (|dw/ds| <= 1) where the branch is straight."""
+    first_step: float = 0.005
+    """First step, a quarter of max_step as no turn is measured yet: max_step after 4 easy steps."""
+    restart_step: float = 3.125e-4
+    """Step after a gap or a reversed tangent (the curvature ahead is unknown): first_step / 16."""
+    min_step: float = 1e-9
+    """Smallest step, then "stalled": 7 halvings below bridge_step, each one trying a bridge."""
+    corner_step: float = 1e-6
+    """A turn over max_turn in a step this short is a corner of c ~ d^n (n < 1): curvature > 1e5."""
+    bridge_step: float = 1e-7
+    """A corrector failing in a step this short meets a gap: with n = 0, c (so the map) jumps."""
+    bridge_reach: tuple[float, ...] = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 3e-2)
+    """Along the tangent, nearest first: n = 0 gaps span up to 3e-3 in w, 3e-2 at |t_w| ~ 0.1."""
+    bridge_distance: float = 5e-2
+    """Largest Newton move in z across a gap: 10x a gap's (5e-3), below O(0.1) to other branches."""
+    retrace_sagitta: float = 0.05
+    """Share of a chord within which a point lies on it: a turn of max_turn sags 0.02 of it."""
+    fold_cluster_slope: float = 0.1
+    """Vertical |dw/ds| in a grazing cluster: above 0.05 between zigzags, below 0.3 into them."""
+    max_points: int = 20000
+    """Points before the cut ("max-points"): 400 of arclength at max_step, so only a stuck step."""
+    location_tolerance: float = 1e-12
+    """Brent's arclength tolerance at bifurcations and edges: far below 1e-6 in w (|dw/ds| <= 1)."""
+
+
+DEFAULT_PARAMETERS = ContinuationParameters()
 
 
 @dataclass(frozen=True)
@@ -113,7 +139,7 @@ class Bifurcation:
 
 
 @dataclass
-class Branch:
+class Branch(Readings):
     """One branch of periodic orbits at one sigma, in arclength order.
 
     Arrays run over the points (P) and harmonics (K): ``frequency_ratio`` (P),
@@ -122,20 +148,13 @@ class Branch:
     complex (P, 2), ``stable`` bool (P), ``arclength`` (P) in the scaled coordinates.
     ``complete`` is true when the branch reached the far end of the w span; ``end`` says
     how it ended: ``"end"`` (the far end), ``"start"`` (it turned back and left the span
-    where it began), ``"stalled"`` (the step fell below :data:`MIN_STEP`), ``"retraced"``
+    where it began), ``"stalled"`` (the step fell below ``min_step``), ``"retraced"``
     (it ran back onto itself past a corner), ``"max-points"``. ``bridges`` counts the gaps
     crossed at fixed w (see :func:`continue_branch`).
     """
 
     sigma: float
     frequency_ratio: np.ndarray
-    amplitude: np.ndarray
-    phase: np.ndarray
-    mean_force: np.ndarray
-    force_max: np.ndarray
-    force_min: np.ndarray
-    contact_loss_fraction: np.ndarray
-    flight_tau: np.ndarray
     multipliers: np.ndarray
     stable: np.ndarray
     arclength: np.ndarray
@@ -184,23 +203,98 @@ def _tangent(evaluation: Evaluation, previous: np.ndarray) -> np.ndarray:
     return t / np.linalg.norm(t)
 
 
-class _Continuation:
-    """The state of one continuation run (one sigma)."""
+@dataclass
+class ContinuationState:
+    """Where one continuation run stands; :func:`iterate` moves it on by one step.
 
-    def __init__(self, oscillator: Oscillator) -> None:
+    Attributes
+    ----------
+    points : list of _Point
+        The points so far, in arclength order.
+    trace : float[max_points, 6]
+        ``(y, tangent)`` of every point so far, for :func:`_retraces`.
+    ds : float
+        The arclength step to try next.
+    located : list of (int, str, _Point)
+        Every located bifurcation: the index of the point before it, its kind, the point.
+    end : str
+        Empty while the run goes on; then how the branch ended (see :class:`Branch`).
+    done : int
+        Progress units reported so far.
+    bridges : int
+        Gaps crossed at fixed w.
+    flipped : int
+        Index of the point whose tangent was reversed after a retrace; -1 before any.
+    kinks : list of int
+        Indices of the points reached over a corner or a gap.
+    marked : dict of int to str
+        Points that are themselves a bifurcation (a fold at a kink), by index.
+    """
+
+    points: list[_Point]
+    trace: np.ndarray
+    ds: float
+    located: list[tuple[int, str, _Point]] = field(default_factory=list)
+    end: str = ""
+    done: int = 0
+    bridges: int = 0
+    flipped: int = -1
+    kinks: list[int] = field(default_factory=list)
+    marked: dict[int, str] = field(default_factory=dict)
+
+
+class _Continuation:
+    """One continuation run (one sigma): the map, the span, the parameters and progress."""
+
+    def __init__(
+        self,
+        oscillator: Oscillator,
+        w_begin: float,
+        w_end: float,
+        parameters: ContinuationParameters,
+        progress: Progress | None,
+    ) -> None:
         self.oscillator = oscillator
         self.period = PeriodMap(oscillator)
+        self.w_begin = w_begin
+        self.w_end = w_end
+        self.low, self.high = min(w_begin, w_end), max(w_begin, w_end)
+        self.parameters = parameters
+        self.progress = progress
+
+    def start(self) -> ContinuationState:
+        """The first point: the orbit a run from rest reaches at ``w_begin``, with its
+        tangent pointing into the span."""
+        period, w_begin = self.period, self.w_begin
+        orbit = find_orbit(period, self.oscillator.rest(w_begin), w_begin)
+        if not orbit.converged:
+            raise ConvergenceError(
+                f"sigma = {self.oscillator.sigma:g}: no periodic orbit found at "
+                f"w = {w_begin:g} to start the continuation from"
+            )
+        y = np.append(period.coordinates(orbit.state), w_begin)
+        evaluation = period(y[:2], w_begin)
+        direction = 1.0 if self.w_end > w_begin else -1.0
+        tangent = _tangent(evaluation, np.array([0.0, 0.0, direction]))
+        trace = np.empty((self.parameters.max_points, 6))
+        trace[0] = np.concatenate((y, tangent))
+        first = _Point(y, tangent, evaluation, 0.0)
+        state = ContinuationState([first], trace, self.parameters.first_step)
+        if w_begin == self.w_end:
+            state.end = "end"  # a span of one frequency: one point
+        return state
 
     def correct(self, point: _Point, ds: float) -> tuple[_Point | None, int]:
         """Predictor ``y + ds t`` and pseudo-arclength corrector. Returns the new point
         (None if the corrector failed) and the number of map evaluations."""
         t = point.tangent
         y = point.y + ds * t
-        for count in range(1, MAX_CORRECTOR_ITERATIONS + 1):
+        iterations = self.parameters.max_corrector_iterations
+        for count in range(1, iterations + 1):
             evaluation = self.period(y[:2], float(y[2]))
             if not evaluation.ok:
                 return None, count
-            if evaluation.error <= CORRECTOR_TOLERANCE and count > 1:
+            if evaluation.error <= self.parameters.corrector_tolerance and count > 1:
                 try:
                     tangent = _tangent(evaluation, t)
                 except np.linalg.LinAlgError:
@@ -216,19 +310,19 @@ class _Continuation:
                 return None, count
             if not np.all(np.isfinite(y)) or y[2] <= 0.0:
                 return None, count
-        return None, MAX_CORRECTOR_ITERATIONS
+        return None, iterations
 
     def bridge(self, point: _Point) -> _Point | None:
         """Cross a gap of the branch: Newton at fixed w a little ahead along the tangent
-        (:data:`BRIDGE_REACH`), accepted within :data:`BRIDGE_DISTANCE` of the prediction."""
-        for reach in BRIDGE_REACH:
+        (``bridge_reach``), accepted within ``bridge_distance`` of the prediction."""
+        for reach in self.parameters.bridge_reach:
             y = point.y + reach * point.tangent
             w = float(y[2])
             orbit = newton(self.period, self.period.state(y[:2], w), w)
             if not orbit.converged:
                 continue
             z = self.period.coordinates(orbit.state)
-            if np.max(np.abs(z - y[:2])) > BRIDGE_DISTANCE:
+            if np.max(np.abs(z - y[:2])) > self.parameters.bridge_distance:
                 continue
             evaluation = self.period(z, w)
             y_new = np.append(z, w)
@@ -261,12 +355,22 @@ class _Continuation:
                 lambda s: function(at(s)),
                 0.0,
                 ds,
-                xtol=LOCATION_TOLERANCE,
+                xtol=self.parameters.location_tolerance,
                 rtol=4.0 * np.finfo(float).eps,
             )
             return at(s)
         except _CorrectorFailed:
             return min((point, new), key=lambda p: abs(function(p)))
+
+    def report(self, state: ContinuationState, w: float) -> None:
+        """Report the progress up to ``w``, in per cent of the span (never backwards)."""
+        if self.progress is None:
+            return
+        fraction = (w - self.w_begin) / (self.w_end - self.w_begin)
+        reached = int(np.clip(fraction, 0.0, 1.0) * POINTS_PER_PROGRESS)
+        if reached > state.done:
+            self.progress(reached - state.done)
+            state.done = reached
 
 
 class _CorrectorFailed(Exception):
@@ -313,21 +417,22 @@ def continue_branch(
     w_begin: float,
     w_end: float,
     progress: Progress | None = None,
-    max_step: float = MAX_STEP,
+    parameters: ContinuationParameters = DEFAULT_PARAMETERS,
 ) -> Branch:
     """Continue the branch of T-periodic orbits from ``w_begin`` to ``w_end``.
 
     The first orbit is the one a run from rest reaches at ``w_begin``
-    (:func:`hertzsweep.shooting.find_orbit`). Bifurcations met on the way are located
-    and inserted as points of the branch.
+    (:func:`hertzsweep.shooting.find_orbit`); :func:`iterate` then steps along the branch
+    until it ends. Bifurcations met on the way are located and inserted as points of the
+    branch.
 
     Where the orbit loses contact the discrete map is only piecewise smooth: a time step
     crossing ``d = 0`` puts a corner in the branch (contact damping with n < 1, whose
     c ~ d^n has an unbounded or no derivative there), or a gap (n = 0: c jumps, so does
     the map). A corner is passed by accepting a large turn over a step below
-    :data:`CORNER_STEP`, orienting the new tangent along the step; a point that then runs
+    ``corner_step``, orienting the new tangent along the step; a point that then runs
     back along the traced branch reverses that tangent once. A gap is crossed by Newton at
-    fixed w a little ahead (:data:`BRIDGE_REACH`), counted in ``Branch.bridges``.
+    fixed w a little ahead (``bridge_reach``), counted in ``Branch.bridges``.
 
     Parameters
     ----------
@@ -337,8 +442,8 @@ def continue_branch(
         [1] the frequency ratios at the two ends.
     progress : callable, optional
         Called with increments; :data:`POINTS_PER_PROGRESS` in all (per cent of the span).
-    max_step : float
-        Largest arclength step in the scaled coordinates.
+    parameters : ContinuationParameters
+        Step control, corrector, corners and gaps, and the location of bifurcations.
 
     Returns
     -------
@@ -350,150 +455,191 @@ def continue_branch(
     ConvergenceError
         No periodic orbit to start from at ``w_begin``.
     """
-    run = _Continuation(oscillator)
-    period = run.period
-    direction = 1.0 if w_end > w_begin else -1.0
-    low, high = min(w_begin, w_end), max(w_begin, w_end)
+    run = _Continuation(oscillator, w_begin, w_end, parameters, progress)
     steps_before = oscillator.steps
-    orbit = find_orbit(period, oscillator.rest(w_begin), w_begin)
-    if not orbit.converged:
-        raise ConvergenceError(
-            f"sigma = {oscillator.sigma:g}: no periodic orbit found at w = {w_begin:g} "
-            "to start the continuation from"
-        )
-    y = np.append(period.coordinates(orbit.state), w_begin)
-    evaluation = period(y[:2], w_begin)
-    tangent = _tangent(evaluation, np.array([0.0, 0.0, direction]))
-    points = [_Point(y, tangent, evaluation, 0.0)]
-    trace = np.empty((MAX_POINTS, 6))  # (y, tangent) of every point, for _retraces
-    trace[0] = np.concatenate((y, tangent))
-    located: list[tuple[int, str, _Point]] = []  # (index of the point before, kind, point)
-    ds = FIRST_STEP
-    end = "end" if w_begin == w_end else ""  # a span of one frequency: one point
-    done = 0
-    bridges = 0
-    flipped = -1  # index of the point whose tangent was reversed after a retrace
-    kinks: list[int] = []  # indices of points reached over a corner or a gap
-    marked: dict[int, str] = {}  # points that are themselves a bifurcation (a kinked fold)
-    while not end:
-        if len(points) >= MAX_POINTS:
-            end = "max-points"
-            break
-        point = points[-1]
-        new, count = run.correct(point, ds)
-        kinked = False  # a corner or a gap: the tangent's orientation is not continuous
-        if new is not None:
-            turn = float(np.arccos(np.clip(new.tangent @ point.tangent, -1.0, 1.0)))
-            if turn > MAX_TURN:
-                if ds > CORNER_STEP:
-                    new = None
-                else:
-                    kinked = True
-        if new is None and ds <= BRIDGE_STEP:
-            new = run.bridge(point)
-            if new is not None:
-                bridges += 1
+    state = run.start()
+    while not state.end:
+        iterate(run, state)
+    if progress is not None and state.done < POINTS_PER_PROGRESS:
+        progress(POINTS_PER_PROGRESS - state.done)
+    return _assemble(run, state, oscillator.steps - steps_before)
+
+
+def iterate(run: _Continuation, state: ContinuationState) -> None:
+    """One step of the continuation from the last point of ``state``.
+
+    A corrected step of ``state.ds`` (:func:`_advance`) either fails (the step shrinks;
+    below ``min_step`` the branch ends, "stalled"), or runs back along the traced branch
+    (:func:`_reverse_tangent`), or is accepted: clipped to the span
+    (:func:`_clip_to_span`), searched for bifurcations (:func:`_detect`), appended, and
+    the next step grown or shrunk by how many map evaluations the corrector needed.
+
+    Parameters
+    ----------
+    run : _Continuation
+        The map, the span, the :class:`ContinuationParameters` and the progress callback.
+    state : ContinuationState
+        Moved on in place; ``state.end`` is set when the branch ends.
+    """
+    parameters = run.parameters
+    if len(state.points) >= parameters.max_points:
+        state.end = "max-points"
+        return
+    point = state.points[-1]
+    new, count, kinked = _advance(run, state, point)
+    if new is None:
+        state.ds *= parameters.shrink
+        if state.ds < parameters.min_step:
+            state.end = "stalled"
+        return
+    if _retraces(state.trace, len(state.points), new, state.ds, parameters.retrace_sagitta):
+        _reverse_tangent(state, parameters)
+        return
+    new = _clip_to_span(run, state, point, new)
+    _detect(run, state, point, new, kinked)
+    _mark_kinked_fold(state, new)
+    state.trace[len(state.points)] = np.concatenate((new.y, new.tangent))
+    state.points.append(new)
+    run.report(state, float(new.y[2]))
+    if count <= parameters.easy_corrector:
+        state.ds = min(state.ds * parameters.growth, parameters.max_step)
+    elif count >= parameters.hard_corrector:
+        state.ds *= parameters.shrink
+
+
+def _advance(
+    run: _Continuation, state: ContinuationState, point: _Point
+) -> tuple[_Point | None, int, bool]:
+    """A step of ``state.ds`` from ``point``: ``(new point or None, evaluations, kinked)``.
+
+    A turn of the tangent beyond ``max_turn`` rejects the step, unless the step is below
+    ``corner_step``: then it is a corner, accepted. A step below ``bridge_step`` that still
+    fails meets a gap: it is bridged (:meth:`_Continuation.bridge`), counted as a hard
+    correction, and the next step is ``restart_step``. Over a corner or a gap (kinked) the
+    tangent's orientation is not continuous.
+    """
+    parameters = run.parameters
+    new, count = run.correct(point, state.ds)
+    kinked = False
+    if new is not None:
+        turn = float(np.arccos(np.clip(new.tangent @ point.tangent, -1.0, 1.0)))
+        if turn > parameters.max_turn:
+            if state.ds > parameters.corner_step:
+                new = None
+            else:
                 kinked = True
-                count = HARD_CORRECTOR
-                ds = RESTART_STEP
-        if new is None:
-            ds *= SHRINK
-            if ds < MIN_STEP:
-                end = "stalled"
-            continue
-        if _retraces(trace, len(points), new, ds):
-            # past a corner the tangent was oriented backwards: reverse it once
-            if flipped == len(points) - 1:
-                end = "retraced"
-                break
-            flipped = len(points) - 1
-            points[-1] = _Point(point.y, -point.tangent, point.evaluation, point.arclength)
-            trace[len(points) - 1, 3:] = -point.tangent
-            ds = RESTART_STEP
-            continue
-        w_new = float(new.y[2])
-        if w_new < low or w_new > high:  # left the span: end exactly on its edge
-            edge = high if w_new > high else low
-            new = run.locate(point, new, ds, lambda p, edge=edge: float(p.y[2]) - edge)
-            y_edge = new.y.copy()
-            y_edge[2] = edge  # drop the residual of Brent's method (below 1e-12)
-            new = _Point(y_edge, new.tangent, new.evaluation, new.arclength)
-            ds = new.arclength - point.arclength
-            end = "end" if edge == w_end else "start"
-        for kind, function in TEST_FUNCTIONS.items():
-            if kind == "neimark-sacker" and oscillator.zeta == 0.0:
-                continue  # undamped: det(M) = 1 identically, every orbit is neutral
-            if kind == "fold" and kinked:
-                kinks.append(len(points))  # judged by w on both sides (below)
-                continue
-            if function(point) * function(new) < 0.0:
-                found = run.locate(point, new, ds, function)
-                if kind == "neimark-sacker" and not _is_complex_pair(found):
-                    continue  # real multipliers with product 1: a neutral saddle
-                located.append((len(points) - 1, kind, found))
-        if kinks and kinks[-1] == len(points) - 1 and len(points) >= 2:
-            # the point before was reached over a kink: a fold there if w turned back
-            before, at = points[-2].y[2], point.y[2]
-            if (at - before) * (float(new.y[2]) - at) < 0.0:
-                marked[len(points) - 1] = "fold"
-        trace[len(points)] = np.concatenate((new.y, new.tangent))
-        points.append(new)
-        if progress is not None:
-            fraction = (float(new.y[2]) - w_begin) / (w_end - w_begin)
-            reached = int(np.clip(fraction, 0.0, 1.0) * POINTS_PER_PROGRESS)
-            if reached > done:
-                progress(reached - done)
-                done = reached
-        if count <= EASY_CORRECTOR:
-            ds = min(ds * GROWTH, max_step)
-        elif count >= HARD_CORRECTOR:
-            ds *= SHRINK
-    if progress is not None and done < POINTS_PER_PROGRESS:
-        progress(POINTS_PER_PROGRESS - done)
-    return _assemble(run, points, located, marked, end, bridges, oscillator.steps - steps_before)
+    if new is None and state.ds <= parameters.bridge_step:
+        new = run.bridge(point)
+        if new is not None:
+            state.bridges += 1
+            state.ds = parameters.restart_step
+            return new, parameters.hard_corrector, True
+    return new, count, kinked
 
 
-def _retraces(trace: np.ndarray, count: int, new: _Point, ds: float) -> bool:
+def _reverse_tangent(state: ContinuationState, parameters: ContinuationParameters) -> None:
+    """The step ran back along the branch: past a corner the last tangent was oriented
+    backwards. Reverse it and restart at ``restart_step``; a second retrace from the same
+    point ends the branch ("retraced")."""
+    last = len(state.points) - 1
+    if state.flipped == last:
+        state.end = "retraced"
+        return
+    state.flipped = last
+    point = state.points[last]
+    state.points[last] = _Point(point.y, -point.tangent, point.evaluation, point.arclength)
+    state.trace[last, 3:] = -point.tangent
+    state.ds = parameters.restart_step
+
+
+def _clip_to_span(
+    run: _Continuation, state: ContinuationState, point: _Point, new: _Point
+) -> _Point:
+    """``new``, or if the step left the span, the point exactly on its edge: the branch
+    ends there ("end" at ``w_end``, "start" where it turned back to ``w_begin``)."""
+    w_new = float(new.y[2])
+    if not (w_new < run.low or w_new > run.high):
+        return new
+    edge = run.high if w_new > run.high else run.low
+    found = run.locate(point, new, state.ds, lambda p: float(p.y[2]) - edge)
+    y_edge = found.y.copy()
+    y_edge[2] = edge  # drop the residual of Brent's method (below 1e-12)
+    state.ds = found.arclength - point.arclength
+    state.end = "end" if edge == run.w_end else "start"
+    return _Point(y_edge, found.tangent, found.evaluation, found.arclength)
+
+
+def _detect(
+    run: _Continuation, state: ContinuationState, point: _Point, new: _Point, kinked: bool
+) -> None:
+    """Locate the bifurcations of the step ``point -> new``: sign changes of the test
+    functions (:data:`TEST_FUNCTIONS`), into ``state.located``. Over a kink the fold's
+    test function (the tangent's w component) says nothing: the new point is listed in
+    ``state.kinks`` and judged by w instead (:func:`_mark_kinked_fold`)."""
+    before = len(state.points) - 1
+    for kind, function in TEST_FUNCTIONS.items():
+        if kind == "neimark-sacker" and run.oscillator.zeta == 0.0:
+            continue  # undamped: det(M) = 1 identically, every orbit is neutral
+        if kind == "fold" and kinked:
+            state.kinks.append(before + 1)
+            continue
+        if function(point) * function(new) < 0.0:
+            found = run.locate(point, new, state.ds, function)
+            if kind == "neimark-sacker" and not _is_complex_pair(found):
+                continue  # real multipliers with product 1: a neutral saddle
+            state.located.append((before, kind, found))
+
+
+def _mark_kinked_fold(state: ContinuationState, new: _Point) -> None:
+    """The last point, reached over a kink, is a fold if w turns back there (it went one
+    way from the point before and goes the other way to ``new``)."""
+    points = state.points
+    if state.kinks and state.kinks[-1] == len(points) - 1 and len(points) >= 2:
+        before, at = points[-2].y[2], points[-1].y[2]
+        if (at - before) * (float(new.y[2]) - at) < 0.0:
+            state.marked[len(points) - 1] = "fold"
+
+
+def _retraces(trace: np.ndarray, count: int, new: _Point, ds: float, sagitta: float) -> bool:
     """Whether ``new`` runs back along the branch already traced.
 
     ``trace`` holds ``(y, tangent)`` of the ``count`` points so far. A retrace puts the
-    new point on the traced polyline (within its sagitta: a step turns the tangent by at
-    most MAX_TURN, so a chord of length l stays within 0.02 l of the curve) with the
-    opposite tangent. The other arm of a hairpin fold of radius r lies 2 r away, some 13
-    chords of at most 0.15 r: it is not mistaken for the branch itself.
+    new point on the traced polyline (within ``sagitta`` of a chord's length: a step turns
+    the tangent by at most ``max_turn``, so a chord of length l stays within 0.02 l of the
+    curve) with the opposite tangent. The other arm of a hairpin fold of radius r lies 2 r
+    away, some 13 chords of at most 0.15 r: it is not mistaken for the branch itself.
     """
     if count < 4:
         return False
     start = trace[: count - 3, :3]  # segments j -> j + 1, not the last two
     chord = trace[1 : count - 2, :3] - start
     length = np.linalg.norm(chord, axis=1)
-    along = np.clip(np.einsum("ij,ij->i", new.y - start, chord) / np.maximum(length, 1e-300)**2,
-                    0.0, 1.0)  # fmt: skip
+    offset = np.einsum("ij,ij->i", new.y - start, chord)
+    along = np.clip(offset / np.maximum(length, 1e-300) ** 2, 0.0, 1.0)
     distance = np.linalg.norm(start + along[:, None] * chord - new.y, axis=1)
-    on_it = distance <= RETRACE_SAGITTA * length + 0.5 * ds
+    on_it = distance <= sagitta * length + 0.5 * ds
     opposite = trace[: count - 3, 3:] @ new.tangent < -0.9
     return bool(np.any(on_it & opposite))
 
 
-def _assemble(
-    run: _Continuation,
-    points: list[_Point],
-    located: list[tuple[int, str, _Point]],
-    marked: dict[int, str],
-    end: str,
-    bridges: int,
-    steps: int,
-) -> Branch:
-    """Insert the located bifurcations among the points, read every point, and report
-    each cluster of grazing folds once (:func:`_fold_clusters`)."""
-    ordered: list[tuple[_Point, str | None]] = []  # (point, bifurcation kind or None)
+def _ordered(state: ContinuationState) -> list[tuple[_Point, str | None]]:
+    """The points with the located bifurcations inserted after the point before each, in
+    arclength order: ``(point, bifurcation kind or None)``."""
+    ordered: list[tuple[_Point, str | None]] = []
     by_index: dict[int, list[tuple[str, _Point]]] = {}
-    for index, kind, found in located:
+    for index, kind, found in state.located:
         by_index.setdefault(index, []).append((kind, found))
-    for i, point in enumerate(points):
-        ordered.append((point, marked.get(i)))
+    for i, point in enumerate(state.points):
+        ordered.append((point, state.marked.get(i)))
         extra = sorted(by_index.get(i, []), key=lambda item: item[1].arclength)
         ordered.extend((found, kind) for kind, found in extra)
+    return ordered
+
+
+def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branch:
+    """Insert the located bifurcations among the points, read every point, and report
+    each cluster of grazing folds once (:func:`_fold_clusters`)."""
+    ordered = _ordered(state)
     oscillator = run.oscillator
     harmonics = list(oscillator.harmonics)
     h1 = harmonics.index(1) if 1 in harmonics else None
@@ -505,7 +651,7 @@ def _assemble(
         readings.append(reading)
         multipliers[i] = sorted_multipliers(point.evaluation.monodromy)
     candidates = [i for i, (_, kind) in enumerate(ordered) if kind is not None]
-    kept = _fold_clusters(ordered, readings, candidates)
+    kept = _fold_clusters(ordered, readings, candidates, run.parameters.fold_cluster_slope)
     bifurcations = []
     for i in kept:
         point, kind = ordered[i]
@@ -530,33 +676,35 @@ def _assemble(
         stable=np.max(np.abs(multipliers), axis=1) < 1.0 - STABILITY_MARGIN,  # as Orbit.stable
         arclength=np.array([p.arclength for p, _ in ordered]),
         bifurcations=bifurcations,
-        complete=end == "end",
-        end=end,
-        bridges=bridges,
+        complete=state.end == "end",
+        end=state.end,
+        bridges=state.bridges,
         steps=steps + steps_measured,
     )
 
 
 def _fold_clusters(
-    ordered: list[tuple[_Point, str | None]], readings: list[Reading], candidates: list[int]
+    ordered: list[tuple[_Point, str | None]],
+    readings: list[Reading],
+    candidates: list[int],
+    vertical: float,
 ) -> list[int]:
     """The located bifurcations to report, as indices into ``ordered``.
 
     Where the orbit loses contact, time steps grazing ``d = 0`` make the discrete map only
     piecewise smooth, and where the branch is near a fold (nearly vertical in the (z, w)
     plane) the scheme's branch zigzags: many turning points of w close together (a few
-    1e-4 in w for n = 3/2, up to 1e-2 for n = 1 at sigma = 7 %, where the branch stays
-    vertical a long way). Consecutive folds with loss of contact between which the branch
-    never leans more than :data:`FOLD_CLUSTER_SLOPE` from the vertical form one cluster.
-    If w runs the other way after the cluster than before it, the cluster is one fold of
-    the oscillator, reported at its extreme w (where the branch finally turns back: its
-    minimum or maximum as it was travelling, which is where a sweep jumps); otherwise it
-    is a zigzag and is dropped. Isolated folds and folds in contact are reported as
-    located.
+    1e-4 in w for n = 3/2, up to 1e-2 for n = 1 where the branch stays vertical a long
+    way). Consecutive folds with loss of contact between which ``|dw/ds|`` never reaches
+    ``vertical`` (``fold_cluster_slope``) form one cluster. If w runs the other way after
+    the cluster than before it, the cluster is one fold of the oscillator, reported at its
+    extreme w (where the branch finally turns back: its minimum or maximum as it was
+    travelling, which is where a sweep jumps); otherwise it is a zigzag and is dropped.
+    Isolated folds and folds in contact are reported as located.
     """
     slope = np.array([abs(point.tangent[2]) for point, _ in ordered])
     w = np.array([point.y[2] for point, _ in ordered])
-    steep = np.flatnonzero(slope >= FOLD_CLUSTER_SLOPE)
+    steep = np.flatnonzero(slope >= vertical)
     kept: list[int] = []
     cluster: list[int] = []
 
@@ -585,14 +733,18 @@ def _fold_clusters(
             close_cluster()
             kept.append(i)
             continue
-        if cluster and np.max(slope[cluster[-1] + 1 : i], initial=0.0) >= FOLD_CLUSTER_SLOPE:
+        if cluster and np.max(slope[cluster[-1] + 1 : i], initial=0.0) >= vertical:
             close_cluster()
         cluster.append(i)
     close_cluster()
     return sorted(kept)
 
 
-def run_branch(scene: Scene, progress: Progress | None = None) -> BranchResult:
+def run_branch(
+    scene: Scene,
+    progress: Progress | None = None,
+    parameters: ContinuationParameters = DEFAULT_PARAMETERS,
+) -> BranchResult:
     """Branches of T-periodic orbits for every sigma of a scene, across the sweep's span.
 
     Parameters
@@ -601,6 +753,8 @@ def run_branch(scene: Scene, progress: Progress | None = None) -> BranchResult:
         Damping, solver, lock-in and the span ``[sweep] start .. stop``.
     progress : callable, optional
         Called with increments, ``POINTS_PER_PROGRESS`` per sigma.
+    parameters : ContinuationParameters
+        The tuning of every continuation (:func:`continue_branch`).
 
     Raises
     ------
@@ -617,9 +771,9 @@ def run_branch(scene: Scene, progress: Progress | None = None) -> BranchResult:
     for sigma in scene.excitation.sigma:
         oscillator = Oscillator(scene, sigma)
         try:
-            branch = continue_branch(oscillator, w_begin, w_end, progress)
+            branch = continue_branch(oscillator, w_begin, w_end, progress, parameters)
         except HertzsweepError as exc:
-            raise type(exc)(f"{scene.source}: branch: {exc}") from None
+            raise exc.with_context(f"{scene.source}: branch") from None
         branches.append(branch)
         steps += branch.steps
     return BranchResult(
@@ -641,6 +795,8 @@ __all__ = [
     "Bifurcation",
     "Branch",
     "BranchResult",
+    "ContinuationParameters",
+    "ContinuationState",
     "KINDS",
     "continue_branch",
     "progress_total",

@@ -9,18 +9,32 @@ a :class:`Reading` (lock-in harmonics, force extremes, contact loss, periodicity
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from ..core.config import Scene
 from ..core.lockin import amplitude_phase
-from ..core.model import law_code
-from ..errors import IntegrationError, StabilityError
-from ..kernels import integrators
+from ..kernels import integrate, scheme, tangent
+from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Drive, Readout
+from ..kernels.laws import make_law
 
 PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period below which
 # (or below 10x the scene tolerance) the steady state counts as T-periodic: well above
 # the residual transient of a settled run, far below a period doubling's O(1) mismatch.
+
+
+@lru_cache(maxsize=8)
+def _tables(steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
+    return scheme.period_tables(steps_per_period)
+
+
+def drive(scene: Scene, sigma: np.ndarray | float) -> Drive:
+    """The kernels' :class:`~hertzsweep.kernels.integrate.Drive` of a scene at the input
+    levels ``sigma`` (one per trajectory)."""
+    sin_table, cos_table = _tables(int(scene.solver.steps_per_period))
+    harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
+    return Drive(np.atleast_1d(np.asarray(sigma, dtype=float)), sin_table, cos_table, harmonics)
 
 
 @dataclass(frozen=True)
@@ -78,17 +92,16 @@ class Oscillator:
         self.scene = scene
         self.sigma = float(sigma)
         self.zeta = float(scene.damping.ratio)
-        self.law = law_code(scene.damping)
-        self.exponent = float(scene.damping.exponent)
+        self.law = make_law(scene.damping.law, scene.damping.ratio, scene.damping.exponent)
         self.steps_per_period = int(scene.solver.steps_per_period)
-        self.sin_table, self.cos_table = integrators.period_tables(self.steps_per_period)
-        self.harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
+        self.drive = drive(scene, self.sigma)
+        self.harmonics = self.drive.harmonics
         self.periodic_tolerance = max(PERIODIC_TOLERANCE_FLOOR, 10.0 * scene.sweep.tolerance)
         self.steps = 0  # integration steps taken, for cost accounting
 
     # ------------------------------------------------------------------ state
     def step(self, frequency_ratio: float) -> float:
-        return integrators.step_size(frequency_ratio, self.steps_per_period)
+        return scheme.step_size(frequency_ratio, self.steps_per_period)
 
     def rest(self, frequency_ratio: float) -> State:
         """At rest at the static equilibrium (q = 0, q' = 0)."""
@@ -96,44 +109,39 @@ class Oscillator:
 
     def from_velocity(self, q: float, velocity: float, frequency_ratio: float) -> State:
         h = self.step(frequency_ratio)
-        q_prev = integrators.start_from(q, velocity, h, self.zeta, self.law, self.exponent)
-        return State(q_prev, q, h)
+        return State(integrate.start_from(q, velocity, h, self.law), q, h)
 
     def retune(self, state: State, frequency_ratio: float) -> State:
         """The same physical state at the step size of another frequency."""
         h = self.step(frequency_ratio)
         if h == state.h:
             return state
-        q_prev = integrators.restart(
-            state.q_prev, state.q, state.h, h, self.zeta, self.law, self.exponent
-        )
-        return State(q_prev, state.q, h)
+        return State(integrate.restart(state.q_prev, state.q, state.h, h, self.law), state.q, h)
 
     def check_status(self, status: int, frequency_ratio: float) -> None:
-        """Raise the error a kernel status means (StabilityError, IntegrationError)."""
-        if status == integrators.UNSTABLE:
-            raise StabilityError(
-                f"solver.steps_per_period: {self.steps_per_period} is beyond the stability "
-                f"limit at the compression reached (sigma = {self.sigma:g}, "
-                f"w = {frequency_ratio:g}); raise it"
-            )
-        if status == integrators.NON_FINITE:
-            raise IntegrationError(
-                f"the state became non-finite at sigma = {self.sigma:g}, w = {frequency_ratio:g}"
-            )
+        """Raise the error a kernel status means (:data:`~hertzsweep.kernels.scheme.STATUS`)."""
+        scheme.check_status(status, self.sigma, frequency_ratio, self.steps_per_period)
 
     # ------------------------------------------------------------------ running
     def advance(self, state: State, frequency_ratio: float, periods: int) -> State:
         """Integrate whole periods (the state must be at this frequency's step)."""
         if periods <= 0:
             return state
-        q_prev, q, status = integrators.advance(
-            state.q_prev, state.q, state.h, self.sigma, self.sin_table, periods,
-            self.zeta, self.law, self.exponent,
-        )  # fmt: skip
+        q_prev, q, status = integrate.advance(
+            state.q_prev, state.q, state.h, self.law, self.drive, periods
+        )
         self.steps += periods * self.steps_per_period
         self.check_status(status, frequency_ratio)
         return State(q_prev, q, state.h)
+
+    def period_map(self, state: State, derivative: np.ndarray) -> tuple[State, int]:
+        """One period of the tangent-linear scheme from ``state``; ``derivative`` (float[2, 3])
+        receives ``d(q[N-1], q[N]) / d(q[-1], q[0], h)``. Returns the state and the status."""
+        q_prev, q, status = tangent.period_map(
+            state.q_prev, state.q, state.h, self.law, self.drive, derivative
+        )
+        self.steps += self.steps_per_period
+        return State(q_prev, q, state.h), status
 
     def measure(
         self,
@@ -145,42 +153,40 @@ class Oscillator:
     ) -> tuple[State, Reading]:
         """Integrate whole periods and read them; optionally record every ``stride``-th
         step into ``record`` (float[M, 4]: q, q', N/F_s, in contact)."""
-        coefficients = np.zeros((self.harmonics.size, 2))
-        if record is None:
-            record = np.zeros((0, 4))
-            stride = 0
-        out = integrators.measure(
-            state.q_prev, state.q, state.h, self.sigma, self.sin_table, self.cos_table,
-            periods, self.zeta, self.law, self.exponent, self.harmonics, coefficients,
-            record, stride,
-        )  # fmt: skip
-        (q_prev, q, status, total, fmax, fmin, loss, longest, lead, trail, qp_last, q_last) = out
+        buffers = integrate.new_readout(
+            self.harmonics.size, 1, None if record is None else record[:, :, None], stride
+        )
+        q_prev, q = np.array([state.q_prev]), np.array([state.q])
+        status, _ = integrate.measure_one(
+            q_prev, q, np.array([state.h]), self.law, self.drive, periods, buffers
+        )
         self.steps += periods * self.steps_per_period
         self.check_status(status, frequency_ratio)
-        reading = self.reading(
-            periods, state.h, coefficients, total, fmax, fmin, loss, longest, lead, trail,
-            qp_last, q_last, q_prev, q,
-        )  # fmt: skip
-        return State(q_prev, q, state.h), reading
+        return State(float(q_prev[0]), float(q[0]), state.h), self.reading(
+            buffers, 0, periods, state.h
+        )
 
-    def reading(
-        self, periods, h, coefficients, total, force_max, force_min, loss, longest, lead,
-        trail, q_prev_last, q_last, q_prev, q,
-    ) -> Reading:  # fmt: skip
-        """The :class:`Reading` of one measured block from the kernel's sums (see
-        :func:`integrators.measure` for the arguments); shared by the batched kernels."""
+    def reading(self, buffers: Readout, t: int, periods: int, h: float) -> Reading:
+        """The :class:`Reading` of trajectory ``t`` of a measured block of ``periods``
+        periods at step h (shared by single and batched runs)."""
+        sums = dict(zip(SUM_FIELDS, buffers.sums[:, t].tolist(), strict=True))
+        counts = dict(zip(COUNT_FIELDS, buffers.counts[:, t].tolist(), strict=True))
         samples = periods * self.steps_per_period
-        flight_steps = samples if lead == samples else max(longest, lead + trail)
+        lead, trail = counts["lead"], counts["trail"]
+        flight_steps = samples if lead == samples else max(counts["longest"], lead + trail)
+        coefficients = np.array(buffers.coefficients[:, :, t])
         amplitude, phase = amplitude_phase(coefficients, samples)
-        scale = max(abs(q_last), abs(q_prev_last), 0.5 * (force_max - force_min), 1e-300)
-        mismatch = max(abs(q - q_last), abs(q_prev - q_prev_last)) / scale
+        fmax, fmin = sums["force_max"], sums["force_min"]
+        q_prev_last, q_last = sums["q_prev_last"], sums["q_last"]
+        scale = max(abs(q_last), abs(q_prev_last), 0.5 * (fmax - fmin), 1e-300)
+        mismatch = max(abs(sums["q"] - q_last), abs(sums["q_prev"] - q_prev_last)) / scale
         return Reading(
             amplitude=amplitude,
             phase=phase,
-            mean_force=1.0 + total / samples,
-            force_max=force_max,
-            force_min=force_min,
-            contact_loss_fraction=loss / samples,
+            mean_force=1.0 + sums["total"] / samples,
+            force_max=fmax,
+            force_min=fmin,
+            contact_loss_fraction=counts["loss"] / samples,
             flight_tau=flight_steps * h,
             periodic=bool(mismatch < self.periodic_tolerance),
             coefficients=coefficients,

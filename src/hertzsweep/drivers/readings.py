@@ -7,6 +7,10 @@ a reading added here appears everywhere at once.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
+
 HARMONIC_FIELDS = ("amplitude", "phase")  # per harmonic k: A_k, phi_k [degree]
 SCALAR_FIELDS = (  # per dwell
     "mean_force",  # mean N/F_s
@@ -17,4 +21,19 @@ SCALAR_FIELDS = (  # per dwell
 )
 READING_FIELDS = HARMONIC_FIELDS + SCALAR_FIELDS
 
-__all__ = ["HARMONIC_FIELDS", "READING_FIELDS", "SCALAR_FIELDS"]
+
+@dataclass
+class Readings:
+    """One array per reading field, on a result's own dimensions (those of a scalar
+    reading, plus ``harmonic`` for :data:`HARMONIC_FIELDS`); the base of every result."""
+
+    amplitude: np.ndarray
+    phase: np.ndarray
+    mean_force: np.ndarray
+    force_max: np.ndarray
+    force_min: np.ndarray
+    contact_loss_fraction: np.ndarray
+    flight_tau: np.ndarray
+
+
+__all__ = ["HARMONIC_FIELDS", "READING_FIELDS", "SCALAR_FIELDS", "Readings"]

@@ -8,7 +8,7 @@ Jacobian of the discrete map,
     (M - I) dx = -(P(x) - x),    M = dP/dx  (the monodromy matrix),
 
 converges quadratically, and its fixed point is the very state a long settled run of
-:func:`hertzsweep.integrators.advance` tends to (the same update, equal to round-off). The Floquet
+:func:`hertzsweep.kernels.integrate.advance` tends to (the same step, bit for bit). The Floquet
 multipliers are the eigenvalues of M; the orbit is asymptotically stable when both lie
 inside the unit circle.
 
@@ -27,15 +27,12 @@ polish by Newton.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.config import Scene
-from ..core.model import check_stability, force_bound
-from ..kernels.integrators import OK
-from ..kernels.tangent import period_map, warm_up
+from ..core.model import force_bound
+from ..kernels.scheme import OK
 from .oscillator import Oscillator, Reading, State
 
 NEWTON_TOLERANCE = 1e-10  # residual |P(x) - x|_inf / Q of a converged orbit: 1e4 x above the
@@ -144,11 +141,8 @@ class PeriodMap:
         osc = self.oscillator
         x = self.basis @ z
         h = osc.step(frequency_ratio)
-        q_prev, q, status = period_map(
-            float(x[0]), float(x[1]), h, osc.sigma, osc.sin_table,
-            osc.zeta, osc.law, osc.exponent, self._derivative,
-        )  # fmt: skip
-        osc.steps += osc.steps_per_period
+        end, status = osc.period_map(State(float(x[0]), float(x[1]), h), self._derivative)
+        q_prev, q = end.q_prev, end.q
         derivative = self._derivative.copy()
         monodromy = derivative[:, :2]
         residual = (np.array([q_prev, q]) - x) / self.scale
@@ -211,8 +205,8 @@ def newton(
         if evaluation is not None and evaluation.ok
         else np.full(2, np.nan + 0j)
     )
-    return Orbit(period.state(z, frequency_ratio), frequency_ratio, multipliers,
-                 tuple(residuals), False)  # fmt: skip
+    state = period.state(z, frequency_ratio)
+    return Orbit(state, frequency_ratio, multipliers, tuple(residuals), False)
 
 
 def mismatch(period: PeriodMap, before: State, after: State) -> float:
@@ -284,70 +278,10 @@ def shooting_dwell(
     return state, reading, orbit.stable
 
 
-def compare_with_settle(scene: Scene) -> dict:
-    """The same sweeps by long settling and by shooting: cost and agreement.
-
-    Returns
-    -------
-    dict
-        ``settle_steps``, ``shooting_steps`` (integration steps, tangent steps included),
-        ``step_ratio`` (settle / shooting), ``settle_seconds``, ``shooting_seconds``
-        (wall time, kernels compiled beforehand), ``max_h1_difference`` (largest
-        ``|H1_shooting - H1_settle|`` over the grid, in units of F_s),
-        ``max_h1_relative_difference``, ``max_h1_difference_settled`` (the same over the
-        dwells the settled sweep reports settled), ``settle_unsettled`` (the others: where
-        ``settle_periods`` left a transient, the first dwells after a jump),
-        ``jump_frequency_ratio_settle`` and
-        ``jump_frequency_ratio_shooting`` (lists over direction and sigma), ``dwells``,
-        ``shooting_unsettled`` (dwells where no stable period-1 orbit was found).
-    """
-    from .sweep import run_sweep
-
-    check_stability(scene)
-    warm_up()
-    _warm_up_integrators(scene)
-    results = {}
-    seconds = {}
-    for method in ("settle", "shooting"):
-        variant = replace(scene, sweep=replace(scene.sweep, steady_state=method))
-        start = time.perf_counter()
-        results[method] = run_sweep(variant)
-        seconds[method] = time.perf_counter() - start
-    settled, shot = results["settle"], results["shooting"]
-    h1_settle = settled.amplitude[..., 0]
-    h1_shooting = shot.amplitude[..., 0]
-    difference = np.abs(h1_shooting - h1_settle)
-    return {
-        "settle_steps": int(settled.steps),
-        "shooting_steps": int(shot.steps),
-        "step_ratio": settled.steps / max(shot.steps, 1),
-        "settle_seconds": seconds["settle"],
-        "shooting_seconds": seconds["shooting"],
-        "time_ratio": seconds["settle"] / max(seconds["shooting"], 1e-12),
-        "max_h1_difference": float(np.max(difference)),
-        "max_h1_relative_difference": float(np.max(difference / np.abs(h1_settle))),
-        "max_h1_difference_settled": float(np.max(difference, where=settled.settled, initial=0)),
-        "settle_unsettled": int(np.sum(~settled.settled)),
-        "jump_frequency_ratio_settle": settled.jump_frequency_ratio.tolist(),
-        "jump_frequency_ratio_shooting": shot.jump_frequency_ratio.tolist(),
-        "dwells": int(h1_settle.size),
-        "shooting_unsettled": int(np.sum(~shot.settled)),
-    }
-
-
-def _warm_up_integrators(scene: Scene) -> None:
-    """Compile the integration kernels (outside any timing)."""
-    oscillator = Oscillator(scene, scene.excitation.sigma[0])
-    w = float(scene.sweep.frequency_ratios[0])
-    state = oscillator.advance(oscillator.rest(w), w, 1)
-    oscillator.measure(state, w, 1)
-
-
 __all__ = [
     "Evaluation",
     "Orbit",
     "PeriodMap",
-    "compare_with_settle",
     "find_orbit",
     "mismatch",
     "newton",

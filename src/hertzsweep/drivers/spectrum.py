@@ -3,89 +3,57 @@
 A record of M samples covering P whole excitation periods has its discrete Fourier
 transform ``X_b = sum_j x_j exp(-2 pi i b j / M)`` on bins b = 0 .. M/2; bin b lies at
 ``b / P`` times the excitation frequency, so harmonic k is bin ``k P`` exactly (no
-leakage). The amplitudes follow the lock-in's convention (:mod:`hertzsweep.lockin`):
+leakage). The amplitudes follow the lock-in's convention (:mod:`hertzsweep.core.lockin`):
 ``A_0 = X_0 / M`` is the mean, ``A_b = 2 |X_b| / M`` the peak amplitude of the line for
 0 < b < M/2, and ``A_{M/2} = |X_{M/2}| / M`` at the Nyquist bin (M even), where the real
 signal's line is ``A cos(pi j)``. For a record of every integration step the lines at
 k P equal the lock-in's H_k to rounding.
 
-The transforms go through pyfftw (FFTW), planned with ``FFTW_MEASURE`` once per size;
-the planner's wisdom is kept on disk under ``$XDG_CACHE_HOME/hertzsweep`` (or
-``~/.cache/hertzsweep``) so that a size measured once is planned at once afterwards.
-numpy.fft is used only when pyfftw cannot be imported.
+The transforms go through pyfftw (FFTW), planned with ``FFTW_ESTIMATE`` (no measuring,
+so planning a new length costs nothing and nothing is written to disk); a plan is kept
+per length for the life of the process (:func:`fftw_plan`). numpy.fft is used when
+pyfftw is not installed. pyfftw is imported only when a spectrum is first computed.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
-from pathlib import Path
+import importlib.util
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
-try:
-    import pyfftw
-except ImportError:  # pragma: no cover - pyfftw is a dependency; numpy.fft is the fallback
-    pyfftw = None
-
-BACKEND = "pyfftw" if pyfftw is not None else "numpy"
-WISDOM_FILE = "fftw-wisdom-double"  # FFTW's double-precision wisdom, as exported
-PLANNING_TIME_LIMIT = 1.0  # [s] cap on one FFTW_MEASURE planning (FFTW keeps the best
-# plan found by then): a new size costs at most about a second once, then its wisdom is
-# cached; unbounded, a record of 10^5-10^6 samples took 2-5 s to plan here.
+BACKEND = "pyfftw" if importlib.util.find_spec("pyfftw") is not None else "numpy"
+BACKENDS = ("pyfftw", "numpy")
+FFTW_FLAGS = ("FFTW_ESTIMATE",)  # a plan from heuristics: instant for any length, and
+# one real transform per record is small next to the integration that made the record
 FFTW_THREADS = 1  # one transform per record, small next to the integration: no threads
-
-_wisdom_loaded = False
-
-
-def cache_directory() -> Path:
-    """``$XDG_CACHE_HOME/hertzsweep``, or ``~/.cache/hertzsweep`` when it is unset."""
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "hertzsweep"
+CACHED_PLANS = 4  # lengths whose plan (and M + 2 doubles of buffer) a process keeps
 
 
-def wisdom_path() -> Path:
-    """The file holding FFTW's wisdom between runs."""
-    return cache_directory() / WISDOM_FILE
+@dataclass(frozen=True)
+class FFTWPlan:
+    """An FFTW plan of the real transform of one length, with its aligned buffers.
+
+    ``samples`` is the real view of ``output`` that the plan reads: the transform is in
+    place, so the plan holds M + 2 doubles.
+    """
+
+    execute: Any
+    samples: np.ndarray
+    output: np.ndarray
 
 
-def load_wisdom() -> bool:
-    """Import the cached wisdom once per process; False if there is none (or it is
-    unreadable: the cache is only an accelerator, never an error)."""
-    global _wisdom_loaded
-    if pyfftw is None:
-        return False
-    if _wisdom_loaded:
-        return True
-    _wisdom_loaded = True
-    try:
-        data = wisdom_path().read_bytes()
-    except OSError:
-        return False
-    return bool(pyfftw.import_wisdom((data, b"", b""))[0])
+@lru_cache(maxsize=CACHED_PLANS)
+def fftw_plan(samples: int) -> FFTWPlan:
+    """The process's plan for records of ``samples`` values (made on first use)."""
+    import pyfftw
 
-
-def save_wisdom() -> None:
-    """Write FFTW's double-precision wisdom to the cache (temporary file, then rename,
-    so that concurrent runs never read a partial file). Failures are ignored."""
-    if pyfftw is None:
-        return
-    data = pyfftw.export_wisdom()[0]
-    path = wisdom_path()
-    try:
-        if path.exists() and path.read_bytes() == data:
-            return
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                handle.write(data)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-    except OSError:
-        return
+    output = pyfftw.empty_aligned(samples // 2 + 1, dtype="complex128")
+    real = output.view("float64")[:samples]
+    execute = pyfftw.FFTW(real, output, flags=FFTW_FLAGS, threads=FFTW_THREADS)
+    return FFTWPlan(execute, real, output)
 
 
 def harmonic_orders(samples: int, periods: int) -> np.ndarray:
@@ -96,7 +64,7 @@ def harmonic_orders(samples: int, periods: int) -> np.ndarray:
 
 
 class AmplitudeSpectrum:
-    """Amplitude spectra of real records of one length, planned once.
+    """Amplitude spectra of real records of one length.
 
     Parameters
     ----------
@@ -108,8 +76,9 @@ class AmplitudeSpectrum:
     Notes
     -----
     With pyfftw the transform is in place: the record (minus ``offset``) is copied into
-    the real view of the aligned complex output, so the only buffer besides the caller's
-    arrays is M + 2 doubles.
+    the real view of the aligned complex output of the length's plan
+    (:func:`fftw_plan`), so the only buffer besides the caller's arrays is M + 2 doubles,
+    shared by every spectrum of that length in the process.
     """
 
     def __init__(self, samples: int, backend: str | None = None) -> None:
@@ -118,36 +87,23 @@ class AmplitudeSpectrum:
         self.samples = int(samples)
         self.bins = self.samples // 2 + 1
         self.backend = backend or BACKEND
-        if self.backend not in ("pyfftw", "numpy"):
+        if self.backend not in BACKENDS:
             raise ValueError(f"backend must be 'pyfftw' or 'numpy', got {self.backend!r}")
-        if self.backend == "pyfftw" and pyfftw is None:
-            raise ValueError("backend 'pyfftw' requested but pyfftw cannot be imported")
-        self._plan = None
-        if self.backend == "pyfftw":
-            load_wisdom()
-            output = pyfftw.empty_aligned(self.bins, dtype="complex128")
-            self._input = output.view("float64")[: self.samples]
-            self._output = output
-            self._plan = pyfftw.FFTW(
-                self._input,
-                output,
-                flags=("FFTW_MEASURE",),
-                threads=FFTW_THREADS,
-                planning_timelimit=PLANNING_TIME_LIMIT,
-            )
-            save_wisdom()
+        if self.backend == "pyfftw" and BACKEND != "pyfftw":
+            raise ValueError("backend 'pyfftw' requested but pyfftw is not installed")
+        self._plan = fftw_plan(self.samples) if self.backend == "pyfftw" else None
 
     def transform(self, signal: np.ndarray, offset: float = 0.0) -> np.ndarray:
         """``X_b`` of ``signal - offset`` (complex, M/2 + 1 bins). With pyfftw the result
-        is the plan's buffer, overwritten by the next call."""
+        is the plan's buffer, overwritten by the next transform of that length."""
         signal = np.asarray(signal, dtype=float)
         if signal.shape != (self.samples,):
             raise ValueError(f"expected {self.samples} samples, got shape {signal.shape}")
         if self._plan is None:
             return np.fft.rfft(signal - offset)
-        np.subtract(signal, offset, out=self._input)
-        self._plan()
-        return self._output
+        np.subtract(signal, offset, out=self._plan.samples)
+        self._plan.execute()
+        return self._plan.output
 
     def amplitude(
         self, signal: np.ndarray, offset: float = 0.0, out: np.ndarray | None = None
@@ -186,10 +142,8 @@ def amplitude_spectrum(
 __all__ = [
     "BACKEND",
     "AmplitudeSpectrum",
+    "FFTWPlan",
     "amplitude_spectrum",
-    "cache_directory",
+    "fftw_plan",
     "harmonic_orders",
-    "load_wisdom",
-    "save_wisdom",
-    "wisdom_path",
 ]

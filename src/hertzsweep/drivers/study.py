@@ -12,15 +12,18 @@ Inline scene tables (``rig = "..."`` or ``[rig]``, ``[damping]``, ``[sweep]``, .
 whole base scene when there is no ``scene`` key, and override single keys of the named
 scene when there is one. ``split_sigma = true`` makes every sigma of the grid its own case
 (finer parallelism); by default the sigma values of the grid are all given to each case,
-whose trajectories then run together in one compiled loop (:mod:`hertzsweep.batch`).
+whose trajectories then run together in one compiled loop
+(:func:`hertzsweep.drivers.batch.run_sweep_batched`).
 
 A case is identified by the sha256 of its resolved scene's canonical JSON
-(``Scene.attributes()`` and the kind): its result is written atomically to
-``OUT.parts/<hash>.nc`` as soon as it finishes, a failure to ``OUT.parts/<hash>.error.json``
-(the config and the error), so a study stopped at any point keeps every finished case and
-``resume`` recomputes only the rest. Cases run on an :class:`Engine`: a local pool of worker
-processes (:class:`LocalPool`) or an existing Dask cluster (:class:`DaskCluster`); both run
-the same function, :func:`run_case`, so the results are identical.
+(``Scene.attributes()`` and the kind, :func:`case_hash`). Cases run on an :class:`Engine`:
+a local pool of worker processes (:class:`LocalPool`) or an existing Dask cluster
+(:class:`DaskCluster`); both run the same function, :func:`run_case`, with the driver
+function of the study's kind (given by the caller), so the results are identical.
+
+This module runs cases to *results* and writes nothing: :func:`run_study` hands each
+finished case to a callable ``on_case(case, outcome)`` of the caller's, which keeps it
+(:mod:`hertzsweep.output.study` writes it to ``OUT.parts/<hash>.nc``).
 """
 
 from __future__ import annotations
@@ -34,20 +37,26 @@ import signal
 import time
 import traceback
 from collections import deque
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ..core.config import CLASSES, Scene, apply_override, load_raw_scene, scene_from_dict
-from ..core.rig import derive
 from ..errors import ConfigError, HertzsweepError
 
-KINDS = ("sweep", "branch")
+DEFAULT_KIND = "sweep"  # a study file without `kind` (the SPEC's default)
 SIGMA_KEY = "excitation.sigma"
 STUDY_KEYS = ("kind", "scene", "grid", "split_sigma")
 POLL_SECONDS = 0.2  # how often the driver looks at finished cases and stop requests
 QUEUE_PER_SLOT = 2  # cases in flight per worker slot: keeps workers busy, stops fast
+PRELOADED = (  # imported once by the local pool's fork server, inherited by every worker
+    __name__,
+    "hertzsweep.drivers.batch",
+    "hertzsweep.drivers.continuation",
+)
+
+Runner = Callable[[Scene], Any]  # a driver function: one case's scene -> its result
 
 
 # --------------------------------------------------------------------------- study files
@@ -67,7 +76,7 @@ class Study:
     Attributes
     ----------
     source : the study file.
-    kind : ``"sweep"`` or ``"branch"``.
+    kind : the kind of every case (``"sweep"`` or ``"branch"``).
     base : the base scene as a raw mapping (rig inlined), the grid not yet applied.
     grid : the grid keys in file order.
     split_sigma : every sigma of the grid its own case (default: all sigma in each case).
@@ -127,15 +136,22 @@ def _scalar(value: Any) -> bool:
     return isinstance(value, bool | int | float | str)
 
 
-def load_study(path: str | os.PathLike) -> Study:
+def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
     """Read and check a study file: every grid value is validated on the base scene.
+
+    Parameters
+    ----------
+    path : path
+        The study file.
+    kinds : collection of str
+        The kinds a study may run (those the caller has a driver for).
 
     Raises
     ------
     ConfigError
-        Naming the study file and the key: unknown top-level key, bad ``kind``, a grid key
-        that is not a config key, a value that is not a list of distinct numbers or
-        strings, or a value the config rejects.
+        Naming the study file and the key: unknown top-level key, a ``kind`` not in
+        ``kinds``, a grid key that is not a config key, a value that is not a list of
+        distinct numbers or strings, or a value the config rejects.
     """
     path = Path(path)
     source = str(path)
@@ -144,9 +160,10 @@ def load_study(path: str | os.PathLike) -> Study:
         if key not in STUDY_KEYS and key not in CLASSES:
             known = ", ".join((*STUDY_KEYS, *CLASSES))
             raise ConfigError(source, key, f"unknown key (known: {known})")
-    kind = raw.pop("kind", "sweep")
-    if kind not in KINDS:
-        raise ConfigError(source, "kind", f"expected one of 'sweep', 'branch', got {kind!r}")
+    kind = raw.pop("kind", DEFAULT_KIND)
+    if kind not in kinds:
+        known = ", ".join(repr(k) for k in kinds)
+        raise ConfigError(source, "kind", f"expected one of {known}, got {kind!r}")
     split_sigma = raw.pop("split_sigma", False)
     if not isinstance(split_sigma, bool):
         raise ConfigError(source, "split_sigma", f"expected true or false, got {split_sigma!r}")
@@ -189,7 +206,8 @@ def load_study(path: str | os.PathLike) -> Study:
     return Study(source=source, kind=kind, base=base, grid=tuple(grid), split_sigma=split_sigma)
 
 
-def _json_default(value: Any) -> Any:
+def json_default(value: Any) -> Any:
+    """``json.dumps(default=...)``: numpy values as plain lists and numbers."""
     if hasattr(value, "tolist"):
         return value.tolist()
     raise TypeError(f"not JSON serialisable: {value!r}")
@@ -199,7 +217,7 @@ def canonical_json(scene: Scene, kind: str) -> str:
     """The resolved configuration as canonical JSON (sorted keys, no spaces): what
     identifies a case. The scene's source file is not part of it."""
     payload = {"kind": kind, "scene": scene.attributes()}
-    return json.dumps(payload, sort_keys=True, separators=(",", ":"), default=_json_default)
+    return json.dumps(payload, sort_keys=True, separators=(",", ":"), default=json_default)
 
 
 def case_hash(scene: Scene, kind: str) -> str:
@@ -231,56 +249,36 @@ def expand(study: Study) -> list[Case]:
     return cases
 
 
-def varying_attributes(cases: Sequence[Case]) -> list[str]:
-    """Names of the global attributes (config values and rig constants) that differ
-    between cases: the study dataset leaves them out (they are its coordinates)."""
-
-    def flat(case: Case) -> dict[str, str]:
-        values = dict(case.scene.attributes())
-        values.update(derive(case.scene.rig).as_dict())
-        return {k: json.dumps(v, default=_json_default) for k, v in values.items()}
-
-    if not cases:
-        return []
-    first = flat(cases[0])
-    varying = set()
-    for case in cases[1:]:
-        varying.update(k for k, v in flat(case).items() if first.get(k) != v)
-    return sorted(varying)
-
-
 # --------------------------------------------------------------------------- one case
 @dataclass
 class CaseOutcome:
-    """What a worker returns: the case's dataset, or the error that stopped it."""
+    """What a worker returns: the case's result (that of the kind's driver), or the
+    error that stopped it (``{"type", "message", "traceback"}``)."""
 
-    dataset: Any = None
+    result: Any = None
     error: dict[str, str] | None = None
     seconds: float = 0.0
 
 
-def run_case(scene: Scene, kind: str, history: str | None = None) -> CaseOutcome:
-    """Run one case (in a worker process, local or Dask): a sweep with every trajectory
-    batched (:func:`hertzsweep.batch.run_sweep_batched`), or a branch
-    (``hertzsweep.continuation.run_branch``). Never raises for the case's own errors: they
-    come back as ``CaseOutcome.error`` (type, message, traceback)."""
+def error_record(exc: BaseException, with_traceback: bool = True) -> dict[str, str]:
+    """``{"type", "message", "traceback"}`` of an exception (in its ``except`` block)."""
+    return {
+        "type": type(exc).__name__,
+        "message": str(exc),
+        "traceback": traceback.format_exc() if with_traceback else "",
+    }
+
+
+def run_case(runner: Runner, scene: Scene) -> CaseOutcome:
+    """Run one case (in a worker process, local or Dask) with the kind's driver, e.g.
+    :func:`hertzsweep.drivers.batch.run_sweep_batched`. Never raises for the case's own
+    errors: they come back as :attr:`CaseOutcome.error`."""
     t0 = time.perf_counter()
     try:
-        if kind == "sweep":
-            from ..output.dataset import sweep_dataset
-            from .batch import run_sweep_batched
-
-            dataset = sweep_dataset(run_sweep_batched(scene), scene, history)
-        else:
-            from ..output.dataset import branch_dataset
-            from .continuation import run_branch
-
-            dataset = branch_dataset(run_branch(scene), scene, history)
+        result = runner(scene)
     except Exception as exc:  # a failed case is recorded, the others go on
-        error = {"type": type(exc).__name__, "message": str(exc),
-                 "traceback": traceback.format_exc()}  # fmt: skip
-        return CaseOutcome(error=error, seconds=time.perf_counter() - t0)
-    return CaseOutcome(dataset=dataset, seconds=time.perf_counter() - t0)
+        return CaseOutcome(error=error_record(exc), seconds=time.perf_counter() - t0)
+    return CaseOutcome(result=result, seconds=time.perf_counter() - t0)
 
 
 # --------------------------------------------------------------------------- engines
@@ -316,7 +314,7 @@ class Engine:
     slots: int = 1
     name: str = "engine"
 
-    def submit(self, case: Case, kind: str, history: str | None) -> Any:
+    def submit(self, case: Case, runner: Runner) -> Any:
         raise NotImplementedError
 
     def completed(self, handles: Iterable[Any], timeout: float) -> list[tuple[Any, CaseOutcome]]:
@@ -331,8 +329,9 @@ class Engine:
 
 def _lost(exc: BaseException) -> CaseOutcome:
     """The outcome of a case whose worker failed (it died, or the cluster lost it)."""
-    message = str(exc) or "the worker running this case was lost"
-    return CaseOutcome(error={"type": type(exc).__name__, "message": message, "traceback": ""})
+    error = error_record(exc, with_traceback=False)
+    error["message"] = error["message"] or "the worker running this case was lost"
+    return CaseOutcome(error=error)
 
 
 class LocalPool(Engine):
@@ -346,7 +345,7 @@ class LocalPool(Engine):
 
         self.slots = max(1, int(workers or os.cpu_count() or 1))
         self._context = multiprocessing.get_context("forkserver")
-        self._context.set_forkserver_preload([__name__, "hertzsweep.batch", "hertzsweep.dataset"])
+        self._context.set_forkserver_preload(list(PRELOADED))
         self._executor = self._new_executor()
 
     def _new_executor(self):
@@ -359,15 +358,15 @@ class LocalPool(Engine):
             initargs=(os.getpid(),),
         )
 
-    def submit(self, case: Case, kind: str, history: str | None) -> Any:
+    def submit(self, case: Case, runner: Runner) -> Any:
         from concurrent.futures.process import BrokenProcessPool
 
         try:
-            return self._executor.submit(run_case, case.scene, kind, history)
+            return self._executor.submit(run_case, runner, case.scene)
         except BrokenProcessPool:  # a worker died earlier: start a fresh pool
             self._executor.shutdown(wait=False, cancel_futures=True)
             self._executor = self._new_executor()
-            return self._executor.submit(run_case, case.scene, kind, history)
+            return self._executor.submit(run_case, runner, case.scene)
 
     def completed(self, handles: Iterable[Any], timeout: float) -> list[tuple[Any, CaseOutcome]]:
         from concurrent.futures import FIRST_COMPLETED, wait
@@ -419,9 +418,9 @@ class DaskCluster(Engine):
         self._finished = as_completed(loop=self.client.loop)
         self.address = address
 
-    def submit(self, case: Case, kind: str, history: str | None) -> Any:
+    def submit(self, case: Case, runner: Runner) -> Any:
         key = f"hertzsweep-case-{case.hash[:16]}-{os.urandom(4).hex()}"
-        future = self.client.submit(run_case, case.scene, kind, history, key=key, pure=False)
+        future = self.client.submit(run_case, runner, case.scene, key=key, pure=False)
         self._finished.add(future)
         return future
 
@@ -451,82 +450,10 @@ class DaskCluster(Engine):
         self.client.close()
 
 
-# --------------------------------------------------------------------------- parts
-def parts_folder(output: str | os.PathLike) -> Path:
-    """``OUT.parts/``: one file per finished (or failed) case."""
-    return Path(f"{output}.parts")
-
-
-def part_path(folder: Path, case: Case) -> Path:
-    return folder / f"{case.hash}.nc"
-
-
-def error_path(folder: Path, case: Case) -> Path:
-    return folder / f"{case.hash}.error.json"
-
-
-def read_part(path: Path, expected_hash: str | None = None):
-    """The dataset of a part file, or None when it is absent, unreadable or not the
-    expected case."""
-    from ..output.dataset import open_dataset
-
-    if not path.exists():
-        return None
-    try:
-        ds = open_dataset(path)
-    except Exception:  # a file that does not open is no part
-        return None
-    if expected_hash is not None and ds.attrs.get("study_case_hash") != expected_hash:
-        return None
-    return ds
-
-
-def write_part(folder: Path, study: Study, case: Case, dataset: Any) -> Path:
-    """Write a finished case atomically, with its grid values and hash as attributes."""
-    from ..output.dataset import write_atomic
-
-    dataset = dataset.copy()
-    dataset.attrs.update(
-        study_case_hash=case.hash,
-        study_case=json.dumps(case.values, default=_json_default),
-        study_kind=study.kind,
-        study_file=study.source,
-    )
-    path = write_atomic(dataset, part_path(folder, case))
-    error_path(folder, case).unlink(missing_ok=True)
-    return path
-
-
-def write_error(folder: Path, study: Study, case: Case, error: dict[str, str]) -> Path:
-    """Record a failed case: its grid values, its whole resolved config and the error
-    (an older part of the same case is removed, so the output marks it failed)."""
-    record = {
-        "hash": case.hash,
-        "study": study.source,
-        "kind": study.kind,
-        "grid": case.values,
-        "config": case.scene.attributes(),
-        "error": error,
-    }
-    from ..output.dataset import atomic_path
-
-    path = error_path(folder, case)
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(record, indent=2, default=_json_default))
-    part_path(folder, case).unlink(missing_ok=True)
-    return path
-
-
-def resumable(cases: Sequence[Case], output: str | os.PathLike) -> list[Case]:
-    """The cases whose part exists and is readable (what ``--resume`` skips)."""
-    folder = parts_folder(output)
-    return [case for case in cases if read_part(part_path(folder, case), case.hash) is not None]
-
-
 # --------------------------------------------------------------------------- the driver
 @dataclass
 class StudyRun:
-    """What a run did: cases computed, taken from earlier parts, failed; and whether it
+    """What a run did: cases computed, taken from earlier results, failed; and whether it
     was stopped (the signal number) before the end."""
 
     cases: list[Case]
@@ -536,61 +463,51 @@ class StudyRun:
     stopped_by: int = 0
     seconds: float = 0.0
 
-    def failure_lines(self, folder: Path) -> list[str]:
-        """One line per failed case: its grid values, the error, the record's file."""
-        lines = []
-        for case, error in self.failed:
-            message = error["message"].splitlines()[0] if error["message"] else ""
-            lines.append(f"{case.label}: {error['type']}: {message} "
-                         f"(config and traceback in {error_path(folder, case)})")  # fmt: skip
-        return lines
-
 
 def run_study(
-    study: Study,
     cases: Sequence[Case],
-    output: str | os.PathLike,
     engine: Engine,
-    resume: bool = False,
-    history: str | None = None,
+    runner: Runner,
+    on_case: Callable[[Case, CaseOutcome], CaseOutcome],
+    skip: Sequence[Case] = (),
     progress: Callable[[int], None] | None = None,
     stop_requested: Callable[[], int] | None = None,
-    resumed: Sequence[Case] | None = None,
 ) -> StudyRun:
-    """Run the cases on the engine; write each part as it finishes.
+    """Run the cases on the engine, handing each to ``on_case`` as it finishes.
 
     Parameters
     ----------
-    resume : skip the cases whose part exists and is readable (:func:`resumable`, or
-        ``resumed`` when the caller has already looked).
+    cases : the study's cases (:func:`expand`).
+    engine : where they run (:class:`LocalPool`, :class:`DaskCluster`).
+    runner : the driver function of the study's kind, one case's scene -> its result; a
+        module-level function (it is sent to the workers).
+    on_case : called in this process with each finished case and its outcome; keeps it
+        (writes it) and returns the outcome as kept: with an error when the result could
+        not be kept.
+    skip : cases already done (kept by an earlier run): not run, counted as resumed.
     progress : called with 1 for each case that finishes (computed or failed).
     stop_requested : returns a signal number (non-zero) when the run must stop: no more
         cases are submitted, the ones in flight are abandoned (:meth:`Engine.stop`), the
-        finished parts stay.
+        ones handed to ``on_case`` stay.
     """
     t0 = time.perf_counter()
-    folder = parts_folder(output)
-    folder.mkdir(parents=True, exist_ok=True)
-    run = StudyRun(cases=list(cases))
-    if resume:
-        run.resumed = list(resumed) if resumed is not None else resumable(cases, output)
-    skip = {case.hash for case in run.resumed}
-    queue: deque[Case] = deque(case for case in cases if case.hash not in skip)
+    run = StudyRun(cases=list(cases), resumed=list(skip))
+    done = {case.hash for case in run.resumed}
+    queue: deque[Case] = deque(case for case in cases if case.hash not in done)
     stop_requested = stop_requested or (lambda: 0)
     in_flight: dict[Any, Case] = {}
     limit = max(1, QUEUE_PER_SLOT * engine.slots)
     while (queue or in_flight) and not stop_requested():
         while queue and len(in_flight) < limit:
             case = queue.popleft()
-            in_flight[engine.submit(case, study.kind, history)] = case
+            in_flight[engine.submit(case, runner)] = case
         for handle, outcome in engine.completed(list(in_flight), POLL_SECONDS):
             case = in_flight.pop(handle)
-            if outcome.error is None:
-                write_part(folder, study, case, outcome.dataset)
+            kept = on_case(case, outcome)
+            if kept.error is None:
                 run.computed.append(case)
             else:
-                write_error(folder, study, case, outcome.error)
-                run.failed.append((case, outcome.error))
+                run.failed.append((case, kept.error))
             if progress is not None:
                 progress(1)
     run.stopped_by = stop_requested()
@@ -598,42 +515,6 @@ def run_study(
         engine.stop(list(in_flight))
     run.seconds = time.perf_counter() - t0
     return run
-
-
-def combine(
-    study: Study,
-    cases: Sequence[Case],
-    output: str | os.PathLike,
-    history: str | None = None,
-    failures: Sequence[str] = (),
-):
-    """ONE dataset of every case's part (NaN / -1 where a case has no part), or None
-    when no case has one. See :func:`hertzsweep.dataset.study_dataset`."""
-    from ..output.dataset import study_dataset
-
-    folder = parts_folder(output)
-    parts = {case.index: read_part(part_path(folder, case), case.hash) for case in cases}
-    if all(ds is None for ds in parts.values()):
-        return None
-    scene = next(c.scene for c in cases if parts[c.index] is not None)
-    return study_dataset(
-        study_kind=study.kind,
-        grid=[(a.key, a.dim, a.values) for a in study.grid],
-        case_dims=[a.dim for a in study.case_axes],
-        parts=parts,
-        case_ids={case.index: case.hash for case in cases},
-        scene=scene,
-        drop_attributes=varying_attributes(cases),
-        history=history,
-        extra={
-            "study_file": study.source,
-            "study_grid": ", ".join(a.key for a in study.grid),
-            "study_split_sigma": int(study.split_sigma),
-            "study_cases": len(cases),
-            "study_failed": len(failures),
-            "study_failures": "\n".join(failures),
-        },
-    )
 
 
 def cases_summary(run: StudyRun) -> str:
@@ -653,15 +534,14 @@ __all__ = [
     "LocalPool",
     "Study",
     "StudyRun",
-    "case_hash",
     "canonical_json",
-    "combine",
+    "case_hash",
+    "cases_summary",
     "dimension_name",
+    "error_record",
     "expand",
+    "json_default",
     "load_study",
-    "parts_folder",
-    "read_part",
-    "resumable",
     "run_case",
     "run_study",
 ]

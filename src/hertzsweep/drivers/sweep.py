@@ -17,12 +17,14 @@ from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import HertzsweepError, Interrupted
 from .oscillator import Oscillator, Reading, State
+from .readings import HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
+from .steady import Dwell, settle_dwell, strategy
 
 Progress = Callable[[int], None]
 
 
 @dataclass
-class SweepResult:
+class SweepResult(Readings):
     """Arrays on (direction, sigma, frequency_ratio[, harmonic]), grid in ascending order.
 
     ``flight_tau`` is the longest flight per measured window in tau; the dataset layer
@@ -33,13 +35,6 @@ class SweepResult:
     sigma: np.ndarray
     frequency_ratio: np.ndarray
     harmonics: np.ndarray
-    amplitude: np.ndarray
-    phase: np.ndarray
-    mean_force: np.ndarray
-    force_max: np.ndarray
-    force_min: np.ndarray
-    contact_loss_fraction: np.ndarray
-    flight_tau: np.ndarray
     settled: np.ndarray
     periodic: np.ndarray
     jump_frequency_ratio: np.ndarray
@@ -57,32 +52,23 @@ class SweepResult:
         def nan(*extra: int) -> np.ndarray:
             return np.full(shape + extra, np.nan)
 
+        readings = {name: nan(harmonics.size) for name in HARMONIC_FIELDS}
+        readings.update({name: nan() for name in SCALAR_FIELDS})
         return cls(
             directions=directions,
             sigma=sigma,
             frequency_ratio=w,
             harmonics=harmonics,
-            amplitude=nan(harmonics.size),
-            phase=nan(harmonics.size),
-            mean_force=nan(),
-            force_max=nan(),
-            force_min=nan(),
-            contact_loss_fraction=nan(),
-            flight_tau=nan(),
             settled=np.zeros(shape, dtype=bool),
             periodic=np.zeros(shape, dtype=bool),
             jump_frequency_ratio=np.full(shape[:2], np.nan),
             finished=np.zeros(shape[:2], dtype=bool),
+            **readings,
         )
 
     def store(self, d: int, s: int, i: int, reading: Reading, settled: bool) -> None:
-        self.amplitude[d, s, i] = reading.amplitude
-        self.phase[d, s, i] = reading.phase
-        self.mean_force[d, s, i] = reading.mean_force
-        self.force_max[d, s, i] = reading.force_max
-        self.force_min[d, s, i] = reading.force_min
-        self.contact_loss_fraction[d, s, i] = reading.contact_loss_fraction
-        self.flight_tau[d, s, i] = reading.flight_tau
+        for name in READING_FIELDS:
+            getattr(self, name)[d, s, i] = getattr(reading, name)
         self.settled[d, s, i] = settled
         self.periodic[d, s, i] = reading.periodic
 
@@ -119,7 +105,7 @@ def run_direction(
     direction: str,
     progress: Progress | None = None,
     store: Callable[[int, Reading, bool], None] | None = None,
-    steady_state: Callable | None = None,
+    dwell: Dwell = settle_dwell,
 ) -> Oscillator:
     """One stepped-sine sweep at one sigma, from rest. ``store(i, reading, settled)`` is
     called for each grid index i as it finishes. Returns the oscillator (its step count).
@@ -131,12 +117,9 @@ def run_direction(
         if state is None:
             state = oscillator.rest(w[i])
         try:
-            if steady_state is None:
-                state, reading, settled = oscillator.dwell(state, w[i])
-            else:
-                state, reading, settled = steady_state(oscillator, state, w[i])
+            state, reading, settled = dwell(oscillator, state, w[i])
         except HertzsweepError as exc:
-            raise type(exc)(f"{scene.source}: {direction} sweep: {exc}") from None
+            raise exc.with_context(f"{scene.source}: {direction} sweep") from None
         if store is not None:
             store(int(i), reading, settled)
         if progress is not None:
@@ -160,11 +143,7 @@ def run_sweep(scene: Scene, progress: Progress | None = None) -> SweepResult:
     """
     check_stability(scene)
     result = SweepResult.empty(scene)
-    steady_state = None
-    if scene.sweep.steady_state == "shooting":
-        from .shooting import shooting_dwell  # issue: shooting-accelerated sweeps
-
-        steady_state = shooting_dwell
+    dwell = strategy(scene)
     try:
         for d, direction in enumerate(result.directions):
             for s, sigma in enumerate(result.sigma):
@@ -172,7 +151,7 @@ def run_sweep(scene: Scene, progress: Progress | None = None) -> SweepResult:
                 def store(i: int, reading: Reading, settled: bool, d=d, s=s) -> None:
                     result.store(d, s, i, reading, settled)
 
-                oscillator = run_direction(scene, sigma, direction, progress, store, steady_state)
+                oscillator = run_direction(scene, sigma, direction, progress, store, dwell)
                 result.steps += oscillator.steps
                 result.jump_frequency_ratio[d, s] = find_jump(
                     result.amplitude[d, s, :, 0],

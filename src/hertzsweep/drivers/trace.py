@@ -21,14 +21,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import ConfigError, HertzsweepError
-from ..kernels import integrators
+from ..kernels import scheme
+from ..kernels.flights import NORMAL_FORCE, RECORD_COLUMNS, flight_intervals
 from .oscillator import Oscillator, State
+from .readings import SCALAR_FIELDS, Readings
 from .spectrum import AmplitudeSpectrum, harmonic_orders
+from .steady import Dwell, settle_dwell, strategy
 
 Progress = Callable[[int], None]
 
@@ -36,16 +38,10 @@ BRANCHES = ("upper", "lower")
 DEFAULT_PERIODS = 8
 GRID_MATCH = 1e-9  # grid frequencies within this of W count as W (the grid is rounded
 # to 1e-12; a user's --frequency 0.975 must not dwell at a grid point 0.975 + 1e-13 first)
-CROSSING_BISECTIONS = 48  # halvings of one sample interval: 2^-48, below rounding of tau
-
-# columns of the record written by integrators.measure
-DISPLACEMENT, VELOCITY, NORMAL_FORCE, IN_CONTACT = 0, 1, 2, 3
-RECORD_COLUMNS = 4
-LOSS_OF_CONTACT = -1.5  # q at which d = 1 + 2q/3 vanishes (eq. 9)
 
 
 @dataclass
-class TraceResult:
+class TraceResult(Readings):
     """Records and their analysis for every sigma at one frequency ratio.
 
     Times are in tau from the first recorded sample (excitation phase 0, so the input
@@ -86,13 +82,6 @@ class TraceResult:
     record: np.ndarray
     spectrum: np.ndarray
     harmonic_order: np.ndarray
-    amplitude: np.ndarray
-    phase: np.ndarray
-    mean_force: np.ndarray
-    force_max: np.ndarray
-    force_min: np.ndarray
-    contact_loss_fraction: np.ndarray
-    flight_tau: np.ndarray
     flight_start: np.ndarray
     flight_end: np.ndarray
     flight_complete: np.ndarray
@@ -159,115 +148,27 @@ def approach_path(frequency_ratios: np.ndarray, frequency_ratio: float, branch: 
     return grid[grid < frequency_ratio - GRID_MATCH]
 
 
-def steady_state_method(scene: Scene) -> Callable | None:
-    """The dwell the scene's sweep uses (None: :meth:`Oscillator.dwell`)."""
-    if scene.sweep.steady_state == "shooting":
-        from .shooting import shooting_dwell
-
-        return shooting_dwell
-    return None
-
-
 def reach(
     oscillator: Oscillator,
     frequency_ratio: float,
     path: np.ndarray,
-    steady_state: Callable | None = None,
+    dwell: Dwell = settle_dwell,
     progress: Progress | None = None,
 ) -> tuple[State, bool]:
     """Walk ``path`` dwell by dwell, then dwell at W. Returns the state at W (at a
     period boundary, excitation phase 0) and whether the dwell at W settled."""
-    dwell = oscillator.dwell if steady_state is None else (
-        lambda state, w: steady_state(oscillator, state, w)
-    )  # fmt: skip
     state = oscillator.rest(path[0] if path.size else frequency_ratio)
     for w in path:
-        state, _, _ = dwell(state, float(w))
+        state, _, _ = dwell(oscillator, state, float(w))
         if progress is not None:
             progress(1)
-    state, _, settled = dwell(state, frequency_ratio)
+    state, _, settled = dwell(oscillator, state, frequency_ratio)
     if progress is not None:
         progress(1)
     return state, bool(settled)
 
 
 # --------------------------------------------------------------------------- flights
-@njit(cache=True)
-def _crossing(q0, q1, v0, v1, dt):
-    """Fraction s of a sample interval where the cubic Hermite interpolant of q
-    (values q0, q1, slopes v0, v1, interval dt in tau) crosses q = -3/2 (bisection;
-    the ends lie on either side of it)."""
-    lo = 0.0
-    hi = 1.0
-    positive = q0 > LOSS_OF_CONTACT
-    for _ in range(CROSSING_BISECTIONS):
-        s = 0.5 * (lo + hi)
-        s2 = s * s
-        s3 = s2 * s
-        q = (
-            (2.0 * s3 - 3.0 * s2 + 1.0) * q0
-            + (s3 - 2.0 * s2 + s) * dt * v0
-            + (-2.0 * s3 + 3.0 * s2) * q1
-            + (s3 - s2) * dt * v1
-        )
-        if (q > LOSS_OF_CONTACT) == positive:
-            lo = s
-        else:
-            hi = s
-    return 0.5 * (lo + hi)
-
-
-@njit(cache=True)
-def flight_intervals(record, dt):
-    """Every flight (run of samples out of contact) of a record, in tau from its start.
-
-    Parameters
-    ----------
-    record : float[M, 4]
-        ``q, q', N/F_s, in contact`` every ``dt``.
-    dt : float
-        Sample spacing in tau.
-
-    Returns
-    -------
-    start, end : float[F]
-        The flight's bounds: where the Hermite interpolant of ``(q, q')`` between the
-        samples on either side crosses q = -3/2; a flight running into the record's start
-        (end) is cut at 0 (``M dt``, the end of the last recorded period).
-    complete : int8[F]
-        1 where both bounds lie inside the record, 0 where the record cuts the flight.
-    """
-    m = record.shape[0]
-    count = 0
-    for i in range(m):
-        if record[i, IN_CONTACT] == 0.0 and (i == 0 or record[i - 1, IN_CONTACT] != 0.0):
-            count += 1
-    start = np.empty(count)
-    end = np.empty(count)
-    complete = np.ones(count, dtype=np.int8)
-    f = -1
-    for i in range(m):
-        out = record[i, IN_CONTACT] == 0.0
-        if out and (i == 0 or record[i - 1, IN_CONTACT] != 0.0):
-            f += 1
-            if i == 0:
-                start[f] = 0.0
-                complete[f] = 0
-            else:
-                s = _crossing(record[i - 1, DISPLACEMENT], record[i, DISPLACEMENT],
-                              record[i - 1, VELOCITY], record[i, VELOCITY], dt)  # fmt: skip
-                start[f] = (i - 1 + s) * dt
-        if out and (i == m - 1 or record[i + 1, IN_CONTACT] != 0.0):
-            if i == m - 1:
-                end[f] = m * dt
-                complete[f] = 0
-            else:
-                s = _crossing(record[i, DISPLACEMENT], record[i + 1, DISPLACEMENT],
-                              record[i, VELOCITY], record[i + 1, VELOCITY], dt)  # fmt: skip
-                end[f] = (i + s) * dt
-    return start, end, complete
-
-
 def longest_flight(start: np.ndarray, end: np.ndarray, complete: np.ndarray, span: float) -> float:
     """The longest flight of a record, in tau.
 
@@ -332,20 +233,19 @@ def run_trace(
     w = float(frequency_ratio)
     periods = int(periods)
     stride = scene.solver.steps_per_period // samples_per_period
-    sample_step = integrators.step_size(w, scene.solver.steps_per_period) * stride
+    sample_step = scheme.step_size(w, scene.solver.steps_per_period) * stride
     sigma = np.asarray(scene.excitation.sigma, dtype=float)
     harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
     samples = periods * samples_per_period
     path = approach_path(scene.sweep.frequency_ratios, w, branch)
-    steady_state = steady_state_method(scene)
+    dwell = strategy(scene)
 
     record = np.empty((sigma.size, samples, RECORD_COLUMNS))
     analyser = AmplitudeSpectrum(samples)
     spectrum = np.empty((sigma.size, analyser.bins))
     amplitude = np.empty((sigma.size, harmonics.size))
     phase = np.empty_like(amplitude)
-    scalars = {name: np.empty(sigma.size) for name in (
-        "mean_force", "force_max", "force_min", "contact_loss_fraction", "flight_tau")}  # fmt: skip
+    scalars = {name: np.empty(sigma.size) for name in SCALAR_FIELDS}
     settled = np.zeros(sigma.size, dtype=bool)
     periodic = np.zeros(sigma.size, dtype=bool)
     flights = []
@@ -353,17 +253,15 @@ def run_trace(
     for s, level in enumerate(sigma):
         oscillator = Oscillator(scene, level)
         try:
-            state, settled[s] = reach(oscillator, w, path, steady_state, progress)
+            state, settled[s] = reach(oscillator, w, path, dwell, progress)
             state, reading = oscillator.measure(state, w, periods, record=record[s], stride=stride)
         except HertzsweepError as exc:
-            raise type(exc)(f"{scene.source}: trace at w = {w:g}: {exc}") from None
+            raise exc.with_context(f"{scene.source}: trace at w = {w:g}") from None
         steps += oscillator.steps
         analyser.amplitude(record[s, :, NORMAL_FORCE], offset=1.0, out=spectrum[s])
         amplitude[s], phase[s] = reading.amplitude, reading.phase
-        scalars["mean_force"][s] = reading.mean_force
-        scalars["force_max"][s] = reading.force_max
-        scalars["force_min"][s] = reading.force_min
-        scalars["contact_loss_fraction"][s] = reading.contact_loss_fraction
+        for name in SCALAR_FIELDS:  # flight_tau: from the interpolated flights, below
+            scalars[name][s] = getattr(reading, name)
         periodic[s] = reading.periodic
         start, end, complete = flight_intervals(record[s], sample_step)
         scalars["flight_tau"][s] = longest_flight(start, end, complete, samples * sample_step)

@@ -1,8 +1,9 @@
 """Datasets: results -> self-describing xarray Datasets with CF-1.11 attributes.
 
 The one table of output attributes is :data:`ATTRIBUTES`; every builder takes names
-from it, so a variable means the same thing in every dataset. Only this layer knows
-xarray; only the CLI opens and writes files, through :func:`write_atomic`.
+from it, so a variable means the same thing in every dataset. Builders take a driver's
+result and the scene and run nothing. Files are written only by the output layer and the
+command line, through :func:`atomic_path` and :func:`write_atomic`: complete or absent.
 """
 
 from __future__ import annotations
@@ -10,10 +11,11 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -21,7 +23,13 @@ import xarray as xr
 from .. import __version__
 from ..core.config import Scene
 from ..core.rig import RigConstants, derive
-from ..drivers.sweep import SweepResult
+from ..drivers.readings import HARMONIC_FIELDS, SCALAR_FIELDS
+
+if TYPE_CHECKING:  # the results' types only: building a dataset runs no driver
+    from ..drivers.accuracy import AccuracyReport
+    from ..drivers.continuation import BranchResult
+    from ..drivers.sweep import SweepResult
+    from ..drivers.trace import TraceResult
 
 CONVENTIONS = "CF-1.11"
 
@@ -61,7 +69,6 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "flight_duration": ("duration of the flight (loss of contact)", "s"),
     "flight_complete": ("flight lies wholly inside the record", "1"),
     "flight_count": ("number of flights in the record", "1"),
-    # --- trace attributes (insert above this line)
     # branch
     "point": ("index of the point along the branch, in arclength order", "1"),
     "multiplier": ("index of the Floquet multiplier, largest modulus first", "1"),
@@ -95,14 +102,12 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     ),
     "bifurcation_amplitude": ("amplitude of harmonic 1 of N/F_s at the bifurcation (peak)", "1"),
     "bifurcation_point": ("index of the branch point at the bifurcation (-1 pads)", "1"),
-    # --- branch attributes (insert above this line)
     # study
     "damping_ratio": ("damping ratio zeta (eq. 4)", "1"),
     "damping_exponent": ("exponent n of the contact damping law (eq. 11)", "1"),
     "damping_law": ("damping law: viscous (eq. 8) or contact (eq. 11)", "1"),
     "case_failed": ("the study case failed or has no result (its values are fill values)", "1"),
     "case_id": ("sha256 of the case's resolved configuration: its part OUT.parts/<id>.nc", "1"),
-    # --- study attributes (insert above this line)
     # accuracy
     "setting_label": ("solver settings of the rung", "1"),
     "steps_per_period": ("integration steps per excitation period", "1"),
@@ -123,7 +128,6 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "pareto": ("on the Pareto front of cost_steps and error_h1", "1"),
     "order_h1": ("observed order of accuracy of H1 from N, 2N, 4N (steps rungs)", "1"),
     "settled_fraction": ("share of the dwells that reached the steady state", "1"),
-    # --- accuracy attributes (insert above this line)
 }
 
 
@@ -175,6 +179,35 @@ def _netcdf_value(value: Any) -> Any:
     return value
 
 
+Variables = dict[str, tuple[tuple[str, ...], Any]]  # name -> (dims, values)
+YES_NO = np.array([0, 1], dtype=np.int8)  # flag_values of a yes/no variable (int8 in netCDF)
+
+
+def _readings(get: Callable[[str], Any], dims: tuple[str, ...], omega: float) -> Variables:
+    """The reading fields of a result (:mod:`hertzsweep.drivers.readings`) as variables on
+    ``dims`` (and ``harmonic`` for the per-harmonic ones); ``flight_tau`` becomes
+    ``flight_time`` [s] = tau / Omega (eq. 6)."""
+    data: Variables = {name: ((*dims, "harmonic"), get(name)) for name in HARMONIC_FIELDS}
+    for name in SCALAR_FIELDS:
+        if name == "flight_tau":
+            data["flight_time"] = (dims, get(name) / omega)
+        else:
+            data[name] = (dims, get(name))
+    return data
+
+
+def _build(data: Variables, coords: Mapping[str, Any], global_attrs: dict[str, Any]) -> xr.Dataset:
+    """A dataset whose variables take their CF attributes from :data:`ATTRIBUTES`."""
+    variables = {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()}
+    return xr.Dataset(variables, coords=coords, attrs=global_attrs)
+
+
+def _flags(ds: xr.Dataset, names: Sequence[str], values: np.ndarray, meanings: str) -> None:
+    """CF flag attributes (``flag_values``, ``flag_meanings``) of integer variables."""
+    for name in names:
+        ds[name].attrs.update(flag_values=values, flag_meanings=meanings)
+
+
 def _coords(result: SweepResult, constants: RigConstants) -> dict[str, Any]:
     return {
         "direction": ("direction", np.array(result.directions, dtype=object), attrs("direction")),
@@ -193,38 +226,24 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
     """The SPEC's sweep dataset."""
     constants = derive(scene.rig)
     base = ("direction", "sigma", "frequency_ratio")
-    data = {
-        "amplitude": (base + ("harmonic",), result.amplitude),
-        "phase": (base + ("harmonic",), result.phase),
-        "mean_force": (base, result.mean_force),
-        "force_max": (base, result.force_max),
-        "force_min": (base, result.force_min),
-        "contact_loss_fraction": (base, result.contact_loss_fraction),
-        "flight_time": (base, result.flight_tau / constants.natural_circular_frequency),
-        "settled": (base, result.settled.astype(np.int8)),
-        "periodic": (base, result.periodic.astype(np.int8)),
-        "jump_frequency_ratio": (("direction", "sigma"), result.jump_frequency_ratio),
-        "jump_frequency": (
-            ("direction", "sigma"),
-            result.jump_frequency_ratio * constants.natural_frequency,
-        ),
-    }
-    ds = xr.Dataset(
-        {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()},
-        coords=_coords(result, constants),
-        attrs=global_attributes(scene, "Stepped-sine sweep of a preloaded Hertzian contact",
-                                "sweep", history),
-    )  # fmt: skip
-    for flag in ("settled", "periodic"):
-        ds[flag].attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")
+    data = _readings(partial(getattr, result), base, constants.natural_circular_frequency)
+    jump = result.jump_frequency_ratio
+    data.update(
+        settled=(base, result.settled.astype(np.int8)),
+        periodic=(base, result.periodic.astype(np.int8)),
+        jump_frequency_ratio=(("direction", "sigma"), jump),
+        jump_frequency=(("direction", "sigma"), jump * constants.natural_frequency),
+    )
+    title = "Stepped-sine sweep of a preloaded Hertzian contact"
+    ds = _build(data, _coords(result, constants), global_attributes(scene, title, "sweep", history))
+    _flags(ds, ("settled", "periodic"), YES_NO, "no yes")
     ds.attrs["integration_steps"] = int(result.steps)
     return ds
 
 
 # --------------------------------------------------------------------------- trace
-# (trace dataset builders go here)
-def trace_dataset(result: Any, scene: Scene, history: str | None = None) -> xr.Dataset:
-    """The trace dataset of a :class:`hertzsweep.trace.TraceResult`.
+def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None) -> xr.Dataset:
+    """The trace dataset of a :class:`hertzsweep.drivers.trace.TraceResult`.
 
     Dimensions ``sigma``, ``sample`` (coordinates ``tau`` and ``time`` [s]),
     ``harmonic``, ``harmonic_order`` (with ``spectrum_frequency`` [Hz]) and ``flight``;
@@ -233,68 +252,51 @@ def trace_dataset(result: Any, scene: Scene, history: str | None = None) -> xr.D
     """
     constants = derive(scene.rig)
     omega = constants.natural_circular_frequency
+    f0 = constants.natural_frequency
     w = float(result.frequency_ratio)
     tau = result.tau
     record = result.record
     trace = ("sigma", "sample")
     flight = ("sigma", "flight")
-    data = {
+    data: Variables = {
         "displacement": (trace, record[:, :, 0]),
         "velocity": (trace, record[:, :, 1]),
         "normal_force": (trace, record[:, :, 2]),
         "in_contact": (trace, record[:, :, 3].astype(np.int8)),
         "spectrum": (("sigma", "harmonic_order"), result.spectrum),
-        "amplitude": (("sigma", "harmonic"), result.amplitude),
-        "phase": (("sigma", "harmonic"), result.phase),
-        "mean_force": ("sigma", result.mean_force),
-        "force_max": ("sigma", result.force_max),
-        "force_min": ("sigma", result.force_min),
-        "contact_loss_fraction": ("sigma", result.contact_loss_fraction),
-        "flight_time": ("sigma", result.flight_tau / omega),
-        "flight_count": ("sigma", result.flight_count.astype(np.int32)),
-        "flight_start": (flight, result.flight_start),
-        "flight_end": (flight, result.flight_end),
-        "flight_start_time": (flight, result.flight_start / omega),
-        "flight_duration": (flight, (result.flight_end - result.flight_start) / omega),
-        "flight_complete": (flight, result.flight_complete),
-        "settled": ("sigma", result.settled.astype(np.int8)),
-        "periodic": ("sigma", result.periodic.astype(np.int8)),
-        "frequency_ratio": ((), w),
-        "frequency": ((), w * constants.natural_frequency),
     }
+    data.update(_readings(partial(getattr, result), ("sigma",), omega))
+    data.update(
+        flight_count=("sigma", result.flight_count.astype(np.int32)),
+        flight_start=(flight, result.flight_start),
+        flight_end=(flight, result.flight_end),
+        flight_start_time=(flight, result.flight_start / omega),
+        flight_duration=(flight, (result.flight_end - result.flight_start) / omega),
+        flight_complete=(flight, result.flight_complete),
+        settled=("sigma", result.settled.astype(np.int8)),
+        periodic=("sigma", result.periodic.astype(np.int8)),
+        frequency_ratio=((), w),
+        frequency=((), w * f0),
+    )
+    order = result.harmonic_order
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "tau": ("sample", tau, attrs("tau")),
         "time": ("sample", tau / omega, attrs("time")),
         "harmonic": ("harmonic", result.harmonics, attrs("harmonic")),
-        "harmonic_order": ("harmonic_order", result.harmonic_order, attrs("harmonic_order")),
-        "spectrum_frequency": (
-            "harmonic_order",
-            result.harmonic_order * w * constants.natural_frequency,
-            attrs("spectrum_frequency"),
-        ),
+        "harmonic_order": ("harmonic_order", order, attrs("harmonic_order")),
+        "spectrum_frequency": ("harmonic_order", order * w * f0, attrs("spectrum_frequency")),
     }
-    ds = xr.Dataset(
-        {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()},
-        coords=coords,
-        attrs=global_attributes(
-            scene, "Time history and spectrum of a preloaded Hertzian contact at one frequency",
-            "trace", history,
-        ),
-    )  # fmt: skip
-    for flag in ("settled", "periodic"):
-        ds[flag].attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")
-    ds["in_contact"].attrs.update(
-        flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="flight contact"
-    )
-    ds["flight_complete"].attrs.update(
-        flag_values=np.array([-1, 0, 1], dtype=np.int8),
-        flag_meanings="no_flight cut_by_record complete",
-    )
+    title = "Time history and spectrum of a preloaded Hertzian contact at one frequency"
+    ds = _build(data, coords, global_attributes(scene, title, "trace", history))
+    _flags(ds, ("settled", "periodic"), YES_NO, "no yes")
+    _flags(ds, ("in_contact",), YES_NO, "flight contact")
+    complete = np.array([-1, 0, 1], dtype=np.int8)
+    _flags(ds, ("flight_complete",), complete, "no_flight cut_by_record complete")
     approach = np.asarray(result.approach)
     ds.attrs.update(
         frequency_ratio=w,
-        frequency=w * constants.natural_frequency,
+        frequency=w * f0,
         branch=result.branch,
         periods=int(result.periods),
         samples_per_period=int(result.samples_per_period),
@@ -308,9 +310,19 @@ def trace_dataset(result: Any, scene: Scene, history: str | None = None) -> xr.D
 
 
 # --------------------------------------------------------------------------- branch
-# (branch dataset builders go here)
-def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Dataset:
-    """The branch dataset of a :class:`~hertzsweep.continuation.BranchResult`.
+def _padded(rows: Sequence[Any], width: int, fill: Any = np.nan, dtype: Any = float) -> np.ndarray:
+    """Rows of different lengths as one array ``(len(rows), width, ...)``, padded with
+    ``fill`` after each row's end."""
+    arrays = [np.asarray(row, dtype=dtype) for row in rows]
+    trailing = max(arrays, key=np.ndim).shape[1:]  # e.g. the harmonics of an amplitude
+    out = np.full((len(arrays), width, *trailing), fill, dtype=dtype)
+    for i, row in enumerate(arrays):
+        out[i, : row.shape[0]] = row
+    return out
+
+
+def branch_dataset(result: BranchResult, scene: Scene, history: str | None = None) -> xr.Dataset:
+    """The branch dataset of a :class:`~hertzsweep.drivers.continuation.BranchResult`.
 
     Dimensions ``sigma``, ``point`` (points in arclength order, NaN padded; ``stable``
     padded with -1), ``harmonic``, ``multiplier`` (0, 1: largest modulus first) and
@@ -318,66 +330,40 @@ def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Datas
     and -1; at least one slot).
     """
     constants = derive(scene.rig)
+    f0 = constants.natural_frequency
     branches = result.branches
-    n_sigma = len(branches)
     n_points = max(branch.size for branch in branches)
     n_found = max(1, max(len(branch.bifurcations) for branch in branches))
-    n_harmonics = result.harmonics.size
-    per_point = {
-        name: np.full((n_sigma, n_points), np.nan)
-        for name in ("frequency_ratio", "mean_force", "force_max", "force_min",
-                     "contact_loss_fraction", "flight_tau", "arclength")
-    }  # fmt: skip
-    amplitude = np.full((n_sigma, n_points, n_harmonics), np.nan)
-    phase = np.full((n_sigma, n_points, n_harmonics), np.nan)
-    multipliers = np.full((n_sigma, n_points, 2), np.nan + 0j)
-    stable = np.full((n_sigma, n_points), -1, dtype=np.int8)
-    found_w = np.full((n_sigma, n_found), np.nan)
-    found_amplitude = np.full((n_sigma, n_found), np.nan)
-    found_kind = np.full((n_sigma, n_found), "", dtype=object)
-    found_point = np.full((n_sigma, n_found), -1, dtype=np.int32)
-    complete = np.zeros(n_sigma, dtype=np.int8)
-    ends = np.array([branch.end for branch in branches], dtype=object)
-    bridges = np.array([branch.bridges for branch in branches], dtype=np.int32)
-    for s, branch in enumerate(branches):
-        size = branch.size
-        for name, values in per_point.items():
-            values[s, :size] = getattr(branch, name)
-        amplitude[s, :size] = branch.amplitude
-        phase[s, :size] = branch.phase
-        multipliers[s, :size] = branch.multipliers
-        stable[s, :size] = branch.stable
-        complete[s] = branch.complete
-        for i, found in enumerate(branch.bifurcations):
-            found_w[s, i] = found.frequency_ratio
-            found_amplitude[s, i] = found.amplitude
-            found_kind[s, i] = found.kind
-            found_point[s, i] = found.point
-    f0 = constants.natural_frequency
+
+    def per_point(name: str, fill: Any = np.nan, dtype: Any = float) -> np.ndarray:
+        return _padded([getattr(branch, name) for branch in branches], n_points, fill, dtype)
+
+    def per_bifurcation(name: str, fill: Any = np.nan, dtype: Any = float) -> np.ndarray:
+        rows = [[getattr(found, name) for found in branch.bifurcations] for branch in branches]
+        return _padded(rows, n_found, fill, dtype)
+
     at_point = ("sigma", "point")
-    data = {
-        "frequency_ratio": (at_point, per_point["frequency_ratio"]),
-        "frequency": (at_point, per_point["frequency_ratio"] * f0),
-        "amplitude": (at_point + ("harmonic",), amplitude),
-        "phase": (at_point + ("harmonic",), phase),
-        "mean_force": (at_point, per_point["mean_force"]),
-        "force_max": (at_point, per_point["force_max"]),
-        "force_min": (at_point, per_point["force_min"]),
-        "contact_loss_fraction": (at_point, per_point["contact_loss_fraction"]),
-        "flight_time": (at_point, per_point["flight_tau"] / constants.natural_circular_frequency),
-        "multiplier_real": (at_point + ("multiplier",), multipliers.real),
-        "multiplier_imag": (at_point + ("multiplier",), multipliers.imag),
-        "stable": (at_point, stable),
-        "arclength": (at_point, per_point["arclength"]),
-        "branch_complete": (("sigma",), complete),
-        "branch_end": (("sigma",), ends),
-        "branch_bridges": (("sigma",), bridges),
-        "bifurcation_frequency_ratio": (("sigma", "bifurcation"), found_w),
-        "bifurcation_frequency": (("sigma", "bifurcation"), found_w * f0),
-        "bifurcation_kind": (("sigma", "bifurcation"), found_kind),
-        "bifurcation_amplitude": (("sigma", "bifurcation"), found_amplitude),
-        "bifurcation_point": (("sigma", "bifurcation"), found_point),
-    }
+    at_found = ("sigma", "bifurcation")
+    w = per_point("frequency_ratio")
+    multipliers = per_point("multipliers", np.nan + 0j, complex)
+    found_w = per_bifurcation("frequency_ratio")
+    data = _readings(per_point, at_point, constants.natural_circular_frequency)
+    data.update(
+        frequency_ratio=(at_point, w),
+        frequency=(at_point, w * f0),
+        multiplier_real=((*at_point, "multiplier"), multipliers.real),
+        multiplier_imag=((*at_point, "multiplier"), multipliers.imag),
+        stable=(at_point, per_point("stable", -1, np.int8)),
+        arclength=(at_point, per_point("arclength")),
+        branch_complete=(("sigma",), np.array([b.complete for b in branches], dtype=np.int8)),
+        branch_end=(("sigma",), np.array([b.end for b in branches], dtype=object)),
+        branch_bridges=(("sigma",), np.array([b.bridges for b in branches], dtype=np.int32)),
+        bifurcation_frequency_ratio=(at_found, found_w),
+        bifurcation_frequency=(at_found, found_w * f0),
+        bifurcation_kind=(at_found, per_bifurcation("kind", "", object)),
+        bifurcation_amplitude=(at_found, per_bifurcation("amplitude")),
+        bifurcation_point=(at_found, per_bifurcation("point", -1, np.int32)),
+    )
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "point": ("point", np.arange(n_points, dtype=np.int32), attrs("point")),
@@ -385,202 +371,49 @@ def branch_dataset(result, scene: Scene, history: str | None = None) -> xr.Datas
         "multiplier": ("multiplier", np.arange(2, dtype=np.int32), attrs("multiplier")),
         "bifurcation": ("bifurcation", np.arange(n_found, dtype=np.int32), attrs("bifurcation")),
     }
-    ds = xr.Dataset(
-        {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()},
-        coords=coords,
-        attrs=global_attributes(scene, "Periodic orbits of a preloaded Hertzian contact by "
-                                "shooting and pseudo-arclength continuation", "branch",
-                                history),
-    )  # fmt: skip
-    ds["stable"].attrs.update(
-        flag_values=np.array([-1, 0, 1], dtype=np.int8), flag_meanings="no_point unstable stable"
+    title = (
+        "Periodic orbits of a preloaded Hertzian contact by shooting and pseudo-arclength "
+        "continuation"
     )
-    ds["branch_complete"].attrs.update(
-        flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes"
+    ds = _build(data, coords, global_attributes(scene, title, "branch", history))
+    stable = np.array([-1, 0, 1], dtype=np.int8)
+    _flags(ds, ("stable",), stable, "no_point unstable stable")
+    _flags(ds, ("branch_complete",), YES_NO, "no yes")
+    ds.attrs.update(
+        integration_steps=int(result.steps),
+        branch_start_frequency_ratio=float(result.start_frequency_ratio),
+        branch_end_frequency_ratio=float(result.end_frequency_ratio),
     )
-    ds.attrs["integration_steps"] = int(result.steps)
-    ds.attrs["branch_start_frequency_ratio"] = float(result.start_frequency_ratio)
-    ds.attrs["branch_end_frequency_ratio"] = float(result.end_frequency_ratio)
     return ds
 
 
-# --------------------------------------------------------------------------- study
-# (study dataset builders go here)
-GRID_UNITS = {  # units of grid coordinates that are SI config values
-    "rig.ball_radius": "m",
-    "rig.youngs_modulus": "Pa",
-    "rig.mass": "kg",
-    "rig.static_load": "N",
-    "rig.ball_mass": "kg",
-    "rig.ball_density": "kg m-3",
-}
-
-
-def _fill_value(dtype: np.dtype) -> Any:
-    """What a study writes where a case has no result: NaN, -1 for integers and flags,
-    "" for strings."""
-    if dtype.kind == "f":
-        return np.nan
-    if dtype.kind in "iu":
-        return -1
-    if dtype.kind == "b":
-        return False
-    return ""
-
-
-def _grid_attrs(key: str, dim: str) -> dict[str, Any]:
-    """CF attributes of a grid coordinate: from :data:`ATTRIBUTES` when the dimension is
-    named there, else the config key itself."""
-    out = attrs(dim) if dim in ATTRIBUTES else {
-        "long_name": f"study grid value of {key}", "units": GRID_UNITS.get(key, "1")}  # fmt: skip
-    out["config_key"] = key
-    return out
-
-
-def study_dataset(
-    study_kind: str,
-    grid: Any,
-    case_dims: Any,
-    parts: Mapping[tuple[int, ...], xr.Dataset | None],
-    case_ids: Mapping[tuple[int, ...], str],
-    scene: Scene,
-    drop_attributes: Any = (),
-    history: str | None = None,
-    extra: Mapping[str, Any] | None = None,
-) -> xr.Dataset:
-    """ONE dataset of a study's cases, concatenated along the grid dimensions.
-
-    Parameters
-    ----------
-    study_kind : ``"sweep"`` or ``"branch"``: the kind of every part.
-    grid : ``[(key, dim, values), ...]``, every grid key in study order.
-    case_dims : the dims the parts vary along, in grid order: every grid dim but
-        ``sigma`` when each case holds all the grid's sigma values.
-    parts : ``{index along case_dims: dataset or None}``; None (a failed case) becomes
-        fill values (NaN; -1 for integers and flags; "" for strings).
-    case_ids : ``{index: hash}``, the ``case_id`` variable.
-    scene : a case's scene, for the global attributes; ``drop_attributes`` (the config
-        values that vary along the grid) are left out.
-
-    Notes
-    -----
-    Dimensions: ``direction`` first (sweep studies), then the grid dims in study order,
-    then the rest of the part's dims (``frequency_ratio``, ``harmonic``; ``point``, ...).
-    Dims without coordinates in the parts (``point``, ``bifurcation``) are padded to the
-    longest part. ``case_failed`` (grid dims) is 1 where a case failed. A sweep study
-    keeps the parts' ``jump_frequency_ratio(direction, ...grid...)``.
-    """
-    values_of = {dim: list(values) for _, dim, values in grid}
-    template = next(ds for ds in parts.values() if ds is not None)
-    fills = {name: _fill_value(var.dtype) for name, var in template.variables.items()}
-    bare_dims: set[str] = set()
-    for ds in parts.values():
-        if ds is not None:
-            bare_dims.update(d for d in ds.dims if d not in ds.indexes)
-
-    def prepared(index: tuple[int, ...]) -> xr.Dataset:
-        ds = parts.get(index)
-        missing = ds is None
-        if missing:
-            ds = template.copy(deep=True)
-            for name in ds.data_vars:
-                ds[name] = ds[name].copy(data=np.full(ds[name].shape, fills[name],
-                                                      dtype=ds[name].dtype))  # fmt: skip
-        ds = ds.assign_coords({d: np.arange(ds.sizes[d]) for d in bare_dims if d in ds.dims})
-        new = {}
-        for dim, i in zip(case_dims, index, strict=True):
-            value = values_of[dim][i]
-            if dim == "sigma":
-                if missing:
-                    ds = ds.isel(sigma=[0]).assign_coords(sigma=[value])
-            else:
-                new[dim] = [value]
-        return ds.expand_dims(new) if new else ds
-
-    shape = [len(values_of[d]) for d in case_dims]
-
-    def nested(prefix: tuple[int, ...]) -> Any:
-        if len(prefix) == len(shape):
-            return prepared(prefix)
-        return [nested(prefix + (i,)) for i in range(shape[len(prefix)])]
-
-    if case_dims:
-        ds = xr.combine_nested(
-            nested(()), concat_dim=list(case_dims), data_vars="all", coords="different",
-            compat="equals", join="outer", fill_value=fills, combine_attrs="override",
-        )  # fmt: skip
-    else:
-        ds = prepared(())
-    ds = ds.drop_vars([d for d in bare_dims if d in ds.coords])
-    grid_dims = [dim for _, dim, _ in grid]
-    head = [d for d in ("direction",) if d in ds.dims]
-    order = head + [d for d in grid_dims if d in ds.dims and d not in head]
-    order += [d for d in template.dims if d not in order]
-    ds = ds.transpose(*order)
-    for key, dim, _ in grid:
-        if dim != "sigma":
-            ds[dim].attrs = _grid_attrs(key, dim)
-    failed = xr.DataArray(
-        np.zeros([len(values_of[d]) for d in grid_dims], dtype=np.int8),
-        dims=grid_dims, coords={d: ds[d] for d in grid_dims}, attrs=attrs("case_failed"),
-    )  # fmt: skip
-    ids = np.empty(shape, dtype=object)
-    for index, ds_part in parts.items():
-        ids[index] = case_ids.get(index, "")
-        if ds_part is None:
-            where = {d: values_of[d][i] for d, i in zip(case_dims, index, strict=True)}
-            failed.loc[where] = 1
-    failed.attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")
-    ds["case_failed"] = failed
-    ds["case_id"] = (tuple(case_dims), ids, attrs("case_id"))
-    if bool(failed.any()):
-        for name in ds.data_vars:
-            meanings = ds[name].attrs.get("flag_meanings")
-            if meanings == "no yes" and name != "case_failed":
-                ds[name].attrs.update(flag_values=np.array([-1, 0, 1], dtype=np.int8),
-                                      flag_meanings="missing no yes")  # fmt: skip
-    steps = [int(p.attrs.get("integration_steps", 0)) for p in parts.values() if p is not None]
-    title = f"Parameter study ({study_kind}) of a preloaded Hertzian contact"
-    out = global_attributes(scene, title, "study", history)
-    for name in drop_attributes:
-        out.pop(name, None)
-    out.pop("scene_file", None)
-    out.update(study_kind=study_kind, integration_steps=int(sum(steps)))
-    ds.attrs = out
-    return merge_attributes(ds, extra or {})
-
-
 # --------------------------------------------------------------------------- accuracy
-# (accuracy dataset builders go here)
-def accuracy_dataset(report: Any, scene: Scene, history: str | None = None) -> xr.Dataset:
-    """The accuracy dataset of a :class:`hertzsweep.accuracy.AccuracyReport`.
+def accuracy_dataset(
+    report: AccuracyReport, scene: Scene, history: str | None = None
+) -> xr.Dataset:
+    """The accuracy dataset of a :class:`hertzsweep.drivers.accuracy.AccuracyReport`.
 
     Dimension ``setting`` (the rungs that ran, reference last) with coordinates
     ``setting_label``, ``steps_per_period``, ``settle`` ("300", "auto:1e-4") and
     ``steady_state``; the errors against the reference, the cost, the Pareto flag and the
-    observed order ``order_h1`` per rung. Attributes: ``observed_order``, ``reference_label``, the
-    reference's Richardson error estimates ``reference_error_h1`` (``_h2``, ``_force``),
-    ``settle_check_h1``, ``scene_setting``, ``target``, ``target_margin`` (the reference's
-    error counted against it) and ``recommended`` (label; empty when none meets the target
-    or no target was given), ``notes``.
+    observed order ``order_h1`` per rung. Attributes: ``observed_order``,
+    ``reference_label``, the reference's Richardson error estimates
+    ``reference_error_h1`` (``_h2``, ``_force``), ``settle_check_h1``, ``scene_setting``,
+    ``target``, ``target_margin`` (the reference's error counted against it) and
+    ``recommended`` (label; empty when none meets the target or no target was given),
+    ``notes``.
     """
     rungs = report.rungs
     settings = [r.setting for r in rungs]
-
-    def strings(values: list[str]) -> np.ndarray:
-        return np.array(values, dtype=object)
-
-    coords = {
-        "setting_label": ("setting", strings([s.label for s in settings]),
-                          attrs("setting_label")),
-        "steps_per_period": ("setting", np.array([s.steps_per_period for s in settings]),
-                             attrs("steps_per_period")),
-        "settle": ("setting", strings([s.settle for s in settings]), attrs("settle")),
-        "steady_state": ("setting", strings([s.steady_state for s in settings]),
-                         attrs("steady_state")),
-    }  # fmt: skip
+    setting_values = {
+        "setting_label": np.array([s.label for s in settings], dtype=object),
+        "steps_per_period": np.array([s.steps_per_period for s in settings]),
+        "settle": np.array([s.settle for s in settings], dtype=object),
+        "steady_state": np.array([s.steady_state for s in settings], dtype=object),
+    }
+    coords = {name: ("setting", values, attrs(name)) for name, values in setting_values.items()}
     errors = report.errors
-    data = {
+    values = {
         "error_h1": np.array([e.h1 for e in errors]),
         "error_h2": np.array([e.h2 for e in errors]),
         "error_force": np.array([e.force for e in errors]),
@@ -591,16 +424,12 @@ def accuracy_dataset(report: Any, scene: Scene, history: str | None = None) -> x
         "order_h1": np.asarray(report.orders, dtype=float),
         "settled_fraction": np.array([float(np.mean(r.result.settled)) for r in rungs]),
     }
-    ds = xr.Dataset(
-        {name: ("setting", values, attrs(name)) for name, values in data.items()},
-        coords=coords,
-        attrs=global_attributes(scene, "Error against cost of the solver settings",
-                                "accuracy", history),
-    )  # fmt: skip
-    ds["pareto"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="no yes")
-    ref_error = report.reference_error
+    data: Variables = {name: (("setting",), v) for name, v in values.items()}
+    title = "Error against cost of the solver settings"
+    ds = _build(data, coords, global_attributes(scene, title, "accuracy", history))
+    _flags(ds, ("pareto",), YES_NO, "no yes")
     recommended = report.recommended
-    extra = {
+    extra: dict[str, Any] = {
         "observed_order": float(report.observed_order),
         "reference_label": rungs[-1].setting.label,
         "scene_setting": report.scene_setting.label,
@@ -610,9 +439,11 @@ def accuracy_dataset(report: Any, scene: Scene, history: str | None = None) -> x
         "error_metric": "error_h1: max abs H1 error over the sweep / the reference's max H1",
         "notes": "; ".join(report.notes),
     }
-    if ref_error is not None:
-        extra.update(reference_error_h1=ref_error.h1, reference_error_h2=ref_error.h2,
-                     reference_error_force=ref_error.force)  # fmt: skip
+    reference = report.reference_error
+    if reference is not None:
+        extra["reference_error_h1"] = reference.h1
+        extra["reference_error_h2"] = reference.h2
+        extra["reference_error_force"] = reference.force
     if report.settle_check is not None:
         extra["settle_check_h1"] = report.settle_check.h1
         extra["settle_check_label"] = report.settle_check_label

@@ -1,52 +1,47 @@
-"""``make paper``: the paper's Figures 3-17 and its numbers beside ours.
+"""``make paper`` (``hertzsweep paper``): the paper's Figures 3-17 and its numbers beside ours.
 
-Usage::
-
-    python -m hertzsweep.output.paper configs/paper results/paper [--quick]
-
-The folder's ``paper.toml`` lists the runs (one scene or study each, with the feature that
-runs it: sweep, trace, branch or study) and the figures drawn from their datasets. Every
-dataset is written to ``OUT/NAME.nc`` (atomically), every figure to ``OUT/FIGURE.png``,
-and ``OUT/validation.md`` sets the numbers the paper reports beside ours
-(:data:`PAPER`, :func:`measurements`, :func:`validation_table`). A run whose feature
-module is not available is skipped with a printed note. ``--quick`` applies each run's
-``quick`` overrides (the reduced configuration of the slow test).
+The folder's ``paper.toml`` lists the runs (one scene or study each, with the kind of
+dataset it makes: any of :data:`hertzsweep.output.kinds.KINDS`) and the figures drawn from
+their datasets. Every dataset is written to ``OUT/NAME.nc`` (atomically), every figure to
+``OUT/FIGURE.png``, and ``OUT/validation.md`` sets the numbers the paper reports beside
+ours (:data:`PAPER`, :func:`measurements`, :func:`validation_table`). ``--quick`` applies
+each run's ``quick`` overrides (the reduced configuration of the slow test).
 """
 
 from __future__ import annotations
 
 import copy
-import importlib.util
 import math
 import shutil
-import signal
-import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
-import click
 import numpy as np
 import xarray as xr
 
-from ..core.config import ExcitationConfig, Scene, load_rig, load_scene, read_toml
+from ..core.config import (
+    ExcitationConfig,
+    Scene,
+    apply_override,
+    load_rig,
+    load_scene,
+    parse_override,
+    read_toml,
+)
 from ..core.rig import RigConstants, derive
+from ..drivers.study import LocalPool, expand, load_study
 from ..drivers.sweep import run_sweep
-from ..errors import ConfigError, HertzsweepError, Interrupted
+from ..errors import ConfigError, HertzsweepError
 from . import plot
-from .dataset import atomic_path, history_line, sweep_dataset, write_atomic
+from .dataset import atomic_path, history_line, write_atomic
+from .kinds import KINDS, SCENE, STUDY, STUDY_KINDS, Kind, check_view, figure
+from .study import failure_lines, parts_folder
 
 MANIFEST = "paper.toml"
-KINDS = ("sweep", "trace", "branch", "study")
-FEATURES = {  # kind -> (module, its driver, the dataset builder): a run of a missing one
-    "sweep": ("hertzsweep.drivers.sweep", "run_sweep", "sweep_dataset"),  # is skipped with a note
-    "trace": ("hertzsweep.drivers.trace", "run_trace", "trace_dataset"),
-    "branch": ("hertzsweep.drivers.continuation", "run_branch", "branch_dataset"),
-    "study": ("hertzsweep.drivers.study", "run_study", "study_dataset"),
-}
 RUN_KEYS = (
     "name",
     "kind",
@@ -168,7 +163,7 @@ def validation_table(ours: Mapping[str, Ours | float], paper: Mapping[str, Repor
         if mine is None or not math.isfinite(mine.value):
             lines.append(
                 f"| {reported.quantity} | {printed} | {reported.where} | not computed "
-                f"| n/a | {mine.note if mine else 'its run was skipped'} |"
+                f"| n/a | {mine.note if mine else 'no run of the manifest measures it'} |"
             )
             continue
         value = f"{format_like(mine.value, reported.text)} {reported.unit}".rstrip()
@@ -295,7 +290,8 @@ def _at_peak(point: xr.Dataset) -> str:
 def measurements(datasets: Mapping[str, xr.Dataset], constants: RigConstants) -> dict[str, Ours]:
     """Our numbers for :data:`PAPER` from the runs of ``paper.toml`` (by name): the rig's
     constants, the sigma = 0.03 % peak (``fig03``), the sweeps at 1 % (``fig04_06``) and
-    at 1.4, 3, 7 % (``fig09_10``). Runs that are missing leave their numbers out."""
+    at 1.4, 3, 7 % (``fig09_10``). Runs the manifest does not have leave their numbers
+    out."""
     ours: dict[str, Ours] = {
         "f0": Ours(constants.natural_frequency, "E = 210 GPa, nu = 0.29, R = 12.7 mm"),
         "k": Ours(constants.contact_stiffness),
@@ -380,7 +376,7 @@ def read_manifest(config_dir: str | Path, quick: bool = False) -> list[Run]:
                 str(path), f"{where}.kind", f"expected one of {', '.join(KINDS)}, got {kind!r}"
             )
         names.add(name)
-        file_key = "study" if kind == "study" else "scene"
+        file_key = KINDS[kind].source  # the manifest names a scene or a study file
         source = config_dir / str(entry.get(file_key, ""))
         if not source.is_file():
             raise ConfigError(str(path), f"{where}.{file_key}", f"no such file {str(source)!r}")
@@ -399,16 +395,17 @@ def read_manifest(config_dir: str | Path, quick: bool = False) -> list[Run]:
                 str(path), f"{where}.periods", f"expected a whole number >= 1, got {periods!r}"
             )
         figures = entry.get("figures", {})
-        for figure, options in figures.items():
+        for figure_name, options in figures.items():
             unknown = set(options) - set(FIGURE_KEYS)
             if unknown:
                 raise ConfigError(
                     str(path),
-                    f"{where}.figures.{figure}",
+                    f"{where}.figures.{figure_name}",
                     f"unknown option(s) {sorted(unknown)} (known: {', '.join(FIGURE_KEYS)})",
                 )
         frequency = entry.get("frequency", "peak")
-        if kind == "trace" and frequency != "peak" and not isinstance(frequency, int | float):
+        at_frequency = KINDS[kind].at_frequency
+        if at_frequency and frequency != "peak" and not isinstance(frequency, int | float):
             raise ConfigError(
                 str(path),
                 f"{where}.frequency",
@@ -426,32 +423,12 @@ def read_manifest(config_dir: str | Path, quick: bool = False) -> list[Run]:
                 figures=dict(figures),
             )
         )
-    if all(run.kind == "study" for run in out):
+    if all(KINDS[run.kind].source != SCENE for run in out):
         raise ConfigError(str(path), "run", "expected at least one scene run (for the rig)")
     for run in out:
         if run.overlay is not None and run.overlay not in names:
             raise ConfigError(str(path), f"{run.name}.overlay", f"no run named {run.overlay!r}")
     return out
-
-
-def missing_feature(kind: str) -> str | None:
-    """What is missing to run this kind of run (None when everything is there)."""
-    from . import dataset
-
-    module_name, driver, builder = FEATURES[kind]
-    if importlib.util.find_spec(module_name) is None:
-        return f"{module_name} is not available"
-    module = importlib.import_module(module_name)
-    if not hasattr(module, driver):
-        return f"{module_name}.{driver} is not available"
-    if not hasattr(dataset, builder):
-        return f"hertzsweep.output.dataset.{builder} is not available"
-    return None
-
-
-def _sweep_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
-    scene = load_scene(run.source, run.overrides)
-    return [sweep_dataset(run_sweep(scene), scene, history)]
 
 
 def _single_level_scenes(scene: Scene) -> list[Scene]:
@@ -465,35 +442,28 @@ def peak_frequency(scene: Scene) -> float:
     return float(result.frequency_ratio[int(np.nanargmax(result.amplitude[0, 0, :, 0]))])
 
 
-def _trace_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
-    """One trace per sigma of the scene, at ``run.frequency`` or at that sigma's peak,
-    reached on the upper branch (as the scene's down sweep reaches it)."""
-    from ..drivers.trace import run_trace
-    from .dataset import trace_dataset
-
+def run_datasets(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
+    """The datasets of one run, by its kind's driver and builder: one per sigma, at
+    ``run.frequency`` or that sigma's peak on the upper branch (as the scene's down sweep
+    reaches it), for a kind that records at one frequency; else one."""
+    kind = KINDS[run.kind]
+    if kind.source == STUDY:
+        return [_study_dataset(run, kind, history, out_dir)]
     scene = load_scene(run.source, run.overrides)
+    if not kind.at_frequency:
+        return [kind.build(kind.run(scene), scene, history)]
     out = []
     for one in _single_level_scenes(scene):
         w = peak_frequency(one) if run.frequency == "peak" else float(run.frequency)
-        out.append(trace_dataset(run_trace(one, w, run.periods, "upper"), one, history))
+        result = kind.run(one, w, periods=run.periods, branch="upper")
+        out.append(kind.build(result, one, history))
     return out
 
 
-def _branch_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
-    from ..drivers.continuation import run_branch
-    from .dataset import branch_dataset
-
-    scene = load_scene(run.source, run.overrides)
-    return [branch_dataset(run_branch(scene), scene, history)]
-
-
-def _study_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
+def _study_dataset(run: Run, kind: Kind, history: str, out_dir: Path) -> xr.Dataset:
     """The study on a local pool of worker processes (one per core); the overrides apply
     to its base scene. The finished cases' parts are removed once combined."""
-    from ..core.config import apply_override, parse_override
-    from ..drivers.study import LocalPool, combine, expand, load_study, parts_folder, run_study
-
-    study = load_study(run.source)
+    study = load_study(run.source, STUDY_KINDS)
     if run.overrides:
         base = copy.deepcopy(study.base)
         for text in run.overrides:
@@ -503,23 +473,15 @@ def _study_run(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
     output = out_dir / f"{run.name}.nc"
     engine = LocalPool()
     try:
-        done = run_study(study, cases, output, engine, history=history)
+        done = kind.run(study, cases, output, engine, history=history)
     finally:
         engine.close()
-    failures = done.failure_lines(parts_folder(output))
-    ds = combine(study, cases, output, history, failures)
+    failures = failure_lines(done, parts_folder(output))
+    ds = kind.build(study, cases, output, history, failures)
     if ds is None:
         raise HertzsweepError(f"{run.source}: every case failed: {'; '.join(failures)}")
     shutil.rmtree(parts_folder(output), ignore_errors=True)
-    return [ds]
-
-
-RUNNERS: dict[str, Callable[[Run, str, Path], list[xr.Dataset]]] = {
-    "sweep": _sweep_run,
-    "trace": _trace_run,
-    "branch": _branch_run,
-    "study": _study_run,
-}
+    return ds
 
 
 def dataset_paths(out_dir: Path, name: str, count: int) -> list[Path]:
@@ -533,11 +495,13 @@ def draw(
     run: Run, options: Mapping[str, Any], datasets: list[xr.Dataset], overlay: xr.Dataset | None
 ):
     """The figure of a run from its options (those of ``hertzsweep plot``; ``hlines``
-    adds labelled horizontal reference lines)."""
+    adds labelled horizontal reference lines). Several datasets (one per sigma) are drawn
+    stacked by their kind."""
     if len(datasets) > 1:
-        fig = plot.trace_figure(datasets, plot.check_view("trace", options.get("view")))
+        kind = KINDS[run.kind]
+        fig = kind.draw(datasets, check_view(kind, options.get("view")), None, None)
     else:
-        fig = plot.figure(
+        fig = figure(
             datasets[0],
             options.get("view"),
             options.get("harmonics"),
@@ -561,7 +525,6 @@ class PaperResult:
 
     datasets: dict[str, xr.Dataset] = field(default_factory=dict)
     files: list[Path] = field(default_factory=list)
-    skipped: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     ours: dict[str, Ours] = field(default_factory=dict)
     wall_time: float = 0.0
@@ -575,44 +538,31 @@ def run_paper(
 ) -> PaperResult:
     """Run every run of ``CONFIG_DIR/paper.toml``, write the datasets, the figures and
     ``OUT/validation.md``."""
-    from ..cli.plot import write_figure
-
     start = time.perf_counter()
     config_dir, out_dir = Path(config_dir), Path(out_dir)
-    argv = ["python", "-m", "hertzsweep.output.paper", str(config_dir), str(out_dir)]
-    argv += ["--quick"] if quick else []
+    argv = ["hertzsweep", "paper", str(config_dir), str(out_dir)] + (["--quick"] if quick else [])
     runs = read_manifest(config_dir, quick)
     out_dir.mkdir(parents=True, exist_ok=True)
     result = PaperResult()
     grouped: dict[str, list[xr.Dataset]] = {}
     for run in runs:
-        figures = ", ".join(run.figures) or "no figure"
-        missing = missing_feature(run.kind)
-        if missing:
-            note = f"{run.name} ({figures}): skipped, {missing}"
-            result.skipped.append(note)
-            echo(note)
-            continue
         began = time.perf_counter()
-        datasets = RUNNERS[run.kind](run, history_line([*argv, f"(run {run.name})"]), out_dir)
+        datasets = run_datasets(run, history_line([*argv, f"(run {run.name})"]), out_dir)
         result.timings[run.name] = time.perf_counter() - began
         grouped[run.name] = datasets
         result.datasets[run.name] = datasets[0]
-        for ds, path in zip(datasets, dataset_paths(out_dir, run.name, len(datasets)), strict=True):
+        paths = dataset_paths(out_dir, run.name, len(datasets))
+        for ds, path in zip(datasets, paths, strict=True):
             result.files.append(write_atomic(ds, path))
-        echo(
-            f"{run.name}: {run.kind} in {result.timings[run.name]:.1f} s -> "
-            f"{', '.join(p.name for p in dataset_paths(out_dir, run.name, len(datasets)))}"
-        )
+        seconds = result.timings[run.name]
+        echo(f"{run.name}: {run.kind} in {seconds:.1f} s -> {', '.join(p.name for p in paths)}")
     for run in runs:
-        if run.name not in grouped:
-            continue
         overlay = result.datasets.get(run.overlay) if run.overlay else None
         for figure_name, options in run.figures.items():
             fig = draw(run, options, grouped[run.name], overlay)
-            result.files.append(write_figure(fig, out_dir / f"{figure_name}.png"))
+            result.files.append(plot.write_figure(fig, out_dir / f"{figure_name}.png"))
             echo(f"{figure_name}.png from {run.name}")
-    constants = derive(load_rig(next(r.source for r in runs if r.kind != "study")))
+    constants = derive(load_rig(next(r.source for r in runs if KINDS[r.kind].source == SCENE)))
     result.ours = measurements(result.datasets, constants)
     result.wall_time = time.perf_counter() - start
     path = out_dir / "validation.md"
@@ -624,7 +574,7 @@ def run_paper(
 
 
 def validation_report(result: PaperResult, quick: bool) -> str:
-    """``validation.md``: the table, how it was made, what was skipped."""
+    """``validation.md``: the table and how it was made."""
     mode = "--quick (reduced grids: not for comparison)" if quick else "full"
     lines = [
         "# The paper's numbers beside ours",
@@ -641,51 +591,9 @@ def validation_report(result: PaperResult, quick: bool) -> str:
         "",
     ]
     lines += [f"- `{name}`: {seconds:.1f} s" for name, seconds in result.timings.items()]
-    lines += [f"- {note}" for note in result.skipped]
     lines += [
         "- Figure 11 is the rig's measured jump frequencies; its computed counterpart "
         "is Figure 15.",
         "",
     ]
     return "\n".join(lines)
-
-
-@click.command(context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("config_dir", type=click.Path(exists=True, file_okay=False))
-@click.argument("out_dir", type=click.Path(file_okay=False))
-@click.option("--quick", is_flag=True, help="The reduced configuration (each run's 'quick').")
-def command(config_dir: str, out_dir: str, quick: bool) -> None:
-    """The paper's Figures 3-17 and validation.md, from CONFIG_DIR/paper.toml into OUT_DIR."""
-    run_paper(config_dir, out_dir, quick, echo=click.echo)
-
-
-def _terminate(signal_number: int, frame: object) -> None:
-    """SIGTERM ends a run like SIGINT: files being written are removed, finished ones stay."""
-    raise Interrupted(None, signal_number)
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    """Entry point; a user error ends in one line on stderr and exit status 2, an
-    interruption (SIGINT, SIGTERM) in one line and 128 + the signal number."""
-    signal.signal(signal.SIGTERM, _terminate)
-    try:
-        command.main(args=list(argv) if argv is not None else None, standalone_mode=False)
-    except click.ClickException as exc:
-        click.echo(f"hertzsweep.paper: error: {exc.format_message()}", err=True)
-        sys.exit(exc.exit_code)
-    except HertzsweepError as exc:
-        click.echo(f"hertzsweep.paper: error: {exc}", err=True)
-        sys.exit(2)
-    except OSError as exc:  # an output folder that cannot be written, ...
-        reason = f"{exc.filename}: {exc.strerror}" if exc.filename and exc.strerror else exc
-        click.echo(f"hertzsweep.paper: error: {reason}", err=True)
-        sys.exit(2)
-    except (click.exceptions.Abort, KeyboardInterrupt) as exc:  # click wraps them in Abort
-        cause = exc.__cause__ if isinstance(exc, click.exceptions.Abort) else exc
-        number = cause.signal_number if isinstance(cause, Interrupted) else signal.SIGINT
-        click.echo("hertzsweep.paper: error: interrupted", err=True)
-        sys.exit(128 + number)
-
-
-if __name__ == "__main__":
-    main()

@@ -1,8 +1,8 @@
 """Paper-style figures from hertzsweep datasets (the views of Figures 3-17 of the paper).
 
-Pure builders: a dataset in, a :class:`matplotlib.figure.Figure` out, drawn on an Agg
-canvas (no screen, no pyplot state, no file written; the command line saves it). The
-builder is picked by the dataset's ``hertzsweep_kind`` attribute (:func:`figure`):
+Builders: a dataset in, a :class:`matplotlib.figure.Figure` out, drawn on an Agg canvas
+(no screen, no pyplot state); :func:`write_figure` saves one atomically. The builder of a
+dataset is that of its ``hertzsweep_kind`` (:func:`hertzsweep.output.kinds.figure`):
 
 - ``sweep``: amplitude and phase of each harmonic against the frequency ratio, up sweeps
   filled markers, down sweeps open ones, one colour per sigma (Figures 3, 4, 5, 9, 10);
@@ -21,7 +21,9 @@ advance. A second axis in Hz uses the dataset's ``natural_frequency``.
 from __future__ import annotations
 
 import itertools
+import os
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -31,16 +33,10 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from ..errors import HertzsweepError
+from .dataset import atomic_path
 
 DPI = 100  # dots per inch of the raster formats: a figure of W x H inches is 100 W x 100 H px
-KINDS = ("sweep", "trace", "branch", "study", "accuracy")
-VIEWS: dict[str, tuple[str, ...]] = {  # the first view of each kind is its default
-    "sweep": ("harmonics", "amplitude", "forces"),
-    "branch": ("harmonics", "amplitude"),
-    "trace": ("both", "time", "spectrum"),
-    "study": ("jumps",),
-    "accuracy": ("errors",),
-}
+FORMATS = ("png", "pdf", "svg")  # figure files, by extension
 COLOURS = (  # matplotlib's tab10, one per sigma (or per curve)
     "#1f77b4",
     "#d62728",
@@ -67,78 +63,35 @@ FOLD_MARKERS = {  # bifurcation kind -> (marker, label)
 }
 
 
-# --------------------------------------------------------------------------- dispatch
-def kind_of(ds: xr.Dataset) -> str:
-    """The dataset's ``hertzsweep_kind``.
+# --------------------------------------------------------------------------- files
+def figure_format(path: str | os.PathLike) -> str:
+    """The format named by a figure file's extension (one of :data:`FORMATS`).
 
     Raises
     ------
     HertzsweepError
-        The attribute is missing or names no known kind.
+        Another extension, or none.
     """
-    kind = ds.attrs.get("hertzsweep_kind")
-    if kind is None:
-        raise HertzsweepError("not a hertzsweep dataset (no 'hertzsweep_kind' attribute)")
-    if kind not in KINDS:
-        known = ", ".join(KINDS)
-        raise HertzsweepError(f"hertzsweep_kind: unknown kind {kind!r} (known: {known})")
-    return str(kind)
-
-
-def figure(
-    ds: xr.Dataset,
-    view: str | None = None,
-    harmonics: Sequence[int] | None = None,
-    sigma: Sequence[float] | None = None,
-    overlay: xr.Dataset | None = None,
-) -> Figure:
-    """The paper-style figure of any hertzsweep dataset, picked by its kind.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        A dataset written by hertzsweep (sweep, trace, branch, study or accuracy).
-    view : str, optional
-        One of :data:`VIEWS` for the kind; default the first.
-    harmonics : sequence of int, optional
-        The harmonic orders to draw (sweep and branch); default all.
-    sigma : sequence of float, optional
-        The input levels to draw (datasets with a ``sigma`` dimension); default all.
-    overlay : xarray.Dataset, optional
-        A sweep dataset drawn as markers over a branch (Figures 13, 14).
-
-    Raises
-    ------
-    HertzsweepError
-        Unknown kind or view, or a harmonic or sigma the dataset does not hold.
-    """
-    kind = kind_of(ds)
-    view = check_view(kind, view)
-    if sigma is not None:
-        ds = select_sigma(ds, sigma)
-    if kind == "sweep":
-        return sweep_figure(ds, view, harmonics)
-    if kind == "branch":
-        return branch_figure(ds, view, harmonics, overlay)
-    if kind == "trace":
-        return trace_figure(ds, view)
-    if kind == "study":
-        return study_figure(ds)
-    return accuracy_figure(ds)
-
-
-def check_view(kind: str, view: str | None) -> str:
-    """The view to draw: ``view`` if the kind has it, else its default (None)."""
-    views = VIEWS[kind]
-    if view is None:
-        return views[0]
-    if view not in views:
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in FORMATS:
+        named = f".{suffix}" if suffix else "(none)"
+        allowed = ", ".join(f".{f}" for f in FORMATS)
         raise HertzsweepError(
-            f"--view: {kind} datasets have views {', '.join(views)}; got {view!r}"
+            f"-o: {str(path)!r}: unknown figure extension {named} (use {allowed})"
         )
-    return view
+    return suffix
 
 
+def write_figure(fig: Figure, path: str | os.PathLike) -> Path:
+    """Save a figure in the format of its extension, atomically: complete or absent."""
+    path = Path(path)
+    fmt = figure_format(path)
+    with atomic_path(path, suffix=f".{fmt}") as tmp:
+        fig.savefig(tmp, format=fmt)
+    return path
+
+
+# --------------------------------------------------------------------------- selection
 def select_sigma(ds: xr.Dataset, sigma: Sequence[float]) -> xr.Dataset:
     """The dataset at the given input levels (each must match one within 1e-9 relative)."""
     if "sigma" not in ds.dims:
@@ -473,7 +426,7 @@ def _mark_bifurcations(ax, one: xr.Dataset, y: np.ndarray, colour: str) -> set[s
 
 def _overlay_sweep(axes, sweep: xr.Dataset, sigmas, orders, with_phase) -> None:
     """A sweep's markers over a branch, in the colour of the branch of the same sigma."""
-    if kind_of(sweep) != "sweep":
+    if sweep.attrs.get("hertzsweep_kind") != "sweep":
         raise HertzsweepError("--overlay: expected a sweep dataset")
     w = sweep.frequency_ratio.values
     for s in sweep.sigma.values:
@@ -708,7 +661,6 @@ def accuracy_figure(ds: xr.Dataset) -> Figure:
     names = [n for n in ERROR_VARIABLES if n in ds]
     if "error_h1" not in names:
         raise HertzsweepError("accuracy dataset has no 'error_h1' to draw")
-    labels = [str(v) for v in ds.setting_label.values] if "setting_label" in ds else None
     for i, name in enumerate(names):
         error = ds[name].values.astype(float)
         label, marker = ERROR_VARIABLES[name]
@@ -724,52 +676,10 @@ def accuracy_figure(ds: xr.Dataset) -> Figure:
         )
     h1 = ds.error_h1.values.astype(float)
     h1 = np.where(h1 > 0, h1, np.nan)  # log axes: the reference's zero left out
+    labels = [str(v) for v in ds.setting_label.values] if "setting_label" in ds else []
     if "pareto" in ds:
-        front = np.flatnonzero(ds.pareto.values == 1)
-        front = front[np.argsort(cost[front])]
-        ax.plot(
-            cost[front],
-            h1[front],
-            color="k",
-            lw=2.0,
-            marker="o",
-            ms=7,
-            label=r"Pareto front (error in $H_1$)",
-        )
-        for j in front:
-            if labels and np.isfinite(h1[j]):
-                ax.annotate(
-                    labels[j],
-                    (cost[j], h1[j]),
-                    fontsize="x-small",
-                    xytext=(4, 4),
-                    textcoords="offset points",
-                )
-    reference = str(ds.attrs.get("reference_label", ""))
-    if labels and reference in labels:
-        ax.axvline(
-            cost[labels.index(reference)],
-            color="0.3",
-            ls=":",
-            lw=1.2,
-            label=f"reference: {reference}",
-        )
-    target = float(ds.attrs.get("target", np.nan))
-    if np.isfinite(target):
-        ax.axhline(target, color="0.3", ls="--", lw=1.0, label=f"target {target:g}")
-    recommended = str(ds.attrs.get("recommended", ""))
-    if labels and recommended in labels:
-        j = labels.index(recommended)
-        ax.plot(
-            [cost[j]],
-            [h1[j]],
-            ls="none",
-            marker="*",
-            ms=16,
-            color="#ff7f0e",
-            mec="k",
-            label=f"recommended: {recommended}",
-        )
+        _pareto_front(ax, cost, h1, ds.pareto.values == 1, labels)
+    _accuracy_marks(ax, ds, cost, h1, labels)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("cost [integration steps]")
@@ -784,15 +694,70 @@ def accuracy_figure(ds: xr.Dataset) -> Figure:
     return fig
 
 
+def _pareto_front(
+    ax, cost: np.ndarray, h1: np.ndarray, on_front: np.ndarray, labels: list[str]
+) -> None:
+    """The Pareto front through the H1 errors, cheapest first, each point labelled."""
+    front = np.flatnonzero(on_front)
+    front = front[np.argsort(cost[front])]
+    ax.plot(
+        cost[front],
+        h1[front],
+        color="k",
+        lw=2.0,
+        marker="o",
+        ms=7,
+        label=r"Pareto front (error in $H_1$)",
+    )
+    for j in front:
+        if labels and np.isfinite(h1[j]):
+            ax.annotate(
+                labels[j],
+                (cost[j], h1[j]),
+                fontsize="x-small",
+                xytext=(4, 4),
+                textcoords="offset points",
+            )
+
+
+def _accuracy_marks(
+    ax, ds: xr.Dataset, cost: np.ndarray, h1: np.ndarray, labels: list[str]
+) -> None:
+    """The reference's cost, the target and the recommended setting, where the dataset
+    names them."""
+    reference = str(ds.attrs.get("reference_label", ""))
+    if reference in labels:
+        ax.axvline(
+            cost[labels.index(reference)],
+            color="0.3",
+            ls=":",
+            lw=1.2,
+            label=f"reference: {reference}",
+        )
+    target = float(ds.attrs.get("target", np.nan))
+    if np.isfinite(target):
+        ax.axhline(target, color="0.3", ls="--", lw=1.0, label=f"target {target:g}")
+    recommended = str(ds.attrs.get("recommended", ""))
+    if recommended in labels:
+        j = labels.index(recommended)
+        ax.plot(
+            [cost[j]],
+            [h1[j]],
+            ls="none",
+            marker="*",
+            ms=16,
+            color="#ff7f0e",
+            mec="k",
+            label=f"recommended: {recommended}",
+        )
+
+
 __all__ = [
     "DPI",
-    "KINDS",
-    "VIEWS",
+    "FORMATS",
     "accuracy_figure",
     "branch_figure",
-    "check_view",
-    "figure",
-    "kind_of",
+    "figure_format",
     "select_harmonics",
     "select_sigma",
     "stability_segments",
@@ -800,4 +765,5 @@ __all__ = [
     "study_jumps",
     "sweep_figure",
     "trace_figure",
+    "write_figure",
 ]

@@ -1,0 +1,403 @@
+"""Integration kernels: whole periods of one or many trajectories, and the instruments.
+
+Contract: plain floats, arrays and the small records of :mod:`.laws` and :mod:`.scheme` in;
+plain tuples out; no I/O. The state crossing the boundary is ``(q[n-1], q[n])`` (the
+displacement); inside, the kernels carry the compression (:mod:`.scheme`). A dwell is a
+whole number of periods of N steps, so the excitation ``sin(2 pi j / N)`` and the lock-in
+references come from per-period tables (:class:`Drive`).
+
+Many trajectories (``T``, the sweeps of a scene: every direction x sigma) advance in one
+loop with the trajectory index innermost and no branches, so that LLVM vectorises across
+them; each trajectory performs exactly the operations of a single one (:func:`step`), so
+one trajectory alone and T together give the same numbers bit for bit. The readings of a
+single trajectory are those of a batch of one: there is one set of instruments,
+:func:`measure`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .laws import terms
+from .scheme import (
+    NON_FINITE,
+    OK,
+    UNSTABLE,
+    compressions,
+    constant,
+    constants,
+    displacements,
+    forcing,
+    make_step,
+    make_steps,
+    to_compression,
+    to_displacement,
+    update,
+)
+
+Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics"])
+"""The input and the lock-in: ``sigma`` float[T] (input level of each trajectory),
+``sin_table``, ``cos_table`` float[N] (``sin``/``cos(2 pi j / N)``), ``harmonics`` int64[K]
+(orders demodulated, each below N/2)."""
+
+Readout = namedtuple("Readout", ["coefficients", "sums", "counts", "record", "stride"])
+"""What :func:`measure` reads, per trajectory t (last axis):
+``coefficients`` float[K, 2, T]: ``sum (N/F_s - 1) cos(k theta_j)``, ``... sin(k theta_j)``;
+``sums`` float[SUMS, T] (:data:`SUM_FIELDS`); ``counts`` float64[COUNTS, T]
+(:data:`COUNT_FIELDS`, flight runs in steps: ``lead`` starts the record, ``trail`` ends it,
+so that a flight across the period boundary can be joined); ``record`` float[M, 4, T]: every
+``stride``-th step ``q, q', N/F_s, in contact`` (``stride = 0``: none)."""
+
+SUM_FIELDS = ("total", "force_max", "force_min", "q_prev_last", "q_last", "q_prev", "q")
+COUNT_FIELDS = ("loss", "longest", "lead", "trail")
+
+
+def new_readout(harmonics: int, trajectories: int, record=None, stride: int = 0) -> Readout:
+    """Output buffers for :func:`measure` (``record`` float[M, 4, T])."""
+    if record is None or stride <= 0:
+        record, stride = np.zeros((0, 4, trajectories)), 0
+    sums = np.zeros((len(SUM_FIELDS), trajectories))
+    counts = np.zeros((len(COUNT_FIELDS), trajectories))  # whole numbers, as floats
+    return Readout(np.zeros((harmonics, 2, trajectories)), sums, counts, record, int(stride))
+
+
+@njit(cache=True, inline="always")
+def step(law, d_prev, d, load, constants):
+    """One step: ``(sqrt(d), c(d), d[n+1])`` (the only place the scheme is evaluated)."""
+    root, c = terms(law, d)
+    return root, c, update(law, d_prev, d, root, c, load, constants)
+
+
+@njit(cache=True, error_model="numpy")
+def advance(q_prev, q, h, law, drive, periods):
+    """Whole periods of one trajectory (``drive.sigma[0]``), without measuring.
+
+    Returns ``(q_prev, q, status)``: :data:`~.scheme.UNSTABLE` when ``h^2 omega^2 >= 4``
+    was reached, :data:`~.scheme.NON_FINITE` when the state is no longer finite (checked
+    after each period).
+    """
+    s = make_step(law, h)
+    sigma = drive.sigma[0]
+    table = drive.sin_table
+    d_prev = to_compression(q_prev)
+    d = to_compression(q)
+    peak = 0.0
+    for _ in range(periods):
+        for j in range(table.shape[0]):
+            root, c, d_next = step(law, d_prev, d, forcing(sigma, table[j]), constant(s))
+            peak = root if root > peak else peak
+            d_prev = d
+            d = d_next
+        status = _status(d_prev, d, peak, s.limit)
+        if status != OK:
+            return to_displacement(d_prev), to_displacement(d), status
+    return to_displacement(d_prev), to_displacement(d), OK
+
+
+@njit(cache=True, inline="always")
+def _finite(d_prev, d):
+    """Whether the state is finite as a displacement (a finite d near the largest double
+    overflows in ``q = 3 (d - 1) / 2``)."""
+    return math.isfinite(to_displacement(d)) and math.isfinite(to_displacement(d_prev))
+
+
+@njit(cache=True, inline="always")
+def _status(d_prev, d, peak, limit):
+    if peak >= limit:
+        return UNSTABLE
+    if not _finite(d_prev, d):
+        return NON_FINITE
+    return OK
+
+
+@njit(cache=True, error_model="numpy")
+def _batch_status(d_prev, d, peak, limit):
+    """``(status, trajectory)``: the first trajectory unstable, else the first non-finite."""
+    for t in range(d.shape[0]):
+        if peak[t] >= limit[t]:
+            return UNSTABLE, t
+    for t in range(d.shape[0]):
+        if not _finite(d_prev[t], d[t]):
+            return NON_FINITE, t
+    return OK, -1
+
+
+@njit(cache=True, error_model="numpy")
+def _periods(law, s, d_prev, d, drive, periods, peak):
+    """Whole periods of T trajectories in place (the vectorised loop of :func:`advance`)."""
+    table = drive.sin_table
+    sigma = drive.sigma
+    for _ in range(periods):
+        for j in range(table.shape[0]):
+            sj = table[j]
+            for t in range(d.shape[0]):
+                dt = d[t]
+                root, c, d_next = step(law, d_prev[t], dt, forcing(sigma[t], sj), constants(s, t))
+                peak[t] = root if root > peak[t] else peak[t]
+                d_prev[t] = dt
+                d[t] = d_next
+        status, t = _batch_status(d_prev, d, peak, s.limit)
+        if status != OK:
+            return status, t
+    return OK, -1
+
+
+@njit(cache=True, error_model="numpy")
+def advance_batch(q_prev, q, h, law, drive, periods):
+    """Whole periods of T trajectories, in place on ``q_prev``, ``q`` (float[T]), each at
+    its own step ``h[t]`` and level ``drive.sigma[t]``. Returns ``(status, trajectory)``:
+    OK and -1, or the first trajectory that failed (checked after each period)."""
+    d_prev = compressions(q_prev)
+    d = compressions(q)
+    status, t = _periods(law, make_steps(law, h), d_prev, d, drive, periods, np.zeros(q.shape[0]))
+    displacements(d_prev, q_prev)
+    displacements(d, q)
+    return status, t
+
+
+TALLY_START = (0.0, -np.inf, np.inf, 0.0, 0.0, -1.0, 0.0)  # total, max, min, loss, longest,
+# lead (-1: no contact seen yet), run: the running sums of :func:`tally`
+
+
+@njit(cache=True, inline="always")
+def observe(law, d_prev, d, load, constants, rate):
+    """One step read like the rig's instruments: ``(sqrt(d), d[n+1], N/F_s - 1, q')`` with
+    ``N/F_s = R + c q'`` and ``q' = (q[n+1] - q[n-1]) / (2 h)`` (``rate = 3 / (4 h)``)."""
+    root, c, d_next = step(law, d_prev, d, load, constants)
+    v = (d_next - d_prev) * rate
+    return root, d_next, d * root - 1.0 + c * v, v
+
+
+@njit(cache=True, inline="always")
+def tally(acc, x, touching):
+    """The running sums after one more step of ``N/F_s - 1 = x``: its sum and extremes, the
+    steps out of contact, the longest inner flight, the run before the first contact
+    (``lead``) and the current run (whole numbers, as floats)."""
+    total, force_max, force_min, loss, longest, lead, run = acc
+    return (
+        total + x,
+        x if x > force_max else force_max,
+        x if x < force_min else force_min,
+        loss + (0.0 if touching else 1.0),
+        run if (touching and lead >= 0.0 and run > longest) else longest,
+        run if (touching and lead < 0.0) else lead,
+        0.0 if touching else run + 1.0,
+    )
+
+
+@njit(cache=True)
+def _finish(readout, t, acc, cos_sum, sin_sum):
+    """Trajectory t's sums into the readout (the extremes as N/F_s)."""
+    total, force_max, force_min, loss, longest, lead, run = acc
+    for i in range(cos_sum.shape[0]):
+        readout.coefficients[i, 0, t] = cos_sum[i]
+        readout.coefficients[i, 1, t] = sin_sum[i]
+    readout.sums[0, t] = total
+    readout.sums[1, t] = force_max + 1.0
+    readout.sums[2, t] = force_min + 1.0
+    readout.counts[0, t] = loss
+    readout.counts[1, t] = longest
+    readout.counts[2, t] = run if lead < 0.0 else lead  # never in contact: one flight
+    readout.counts[3, t] = run
+
+
+@njit(cache=True)
+def _lockin_tables(drive):
+    """``(index, shift)``: each harmonic's position in the tables and its step (k mod N)."""
+    n = drive.sin_table.shape[0]
+    shift = np.empty(drive.harmonics.shape[0], dtype=np.int64)
+    for i in range(shift.shape[0]):
+        shift[i] = drive.harmonics[i] % n
+    return np.zeros_like(shift), shift
+
+
+@njit(cache=True, error_model="numpy")
+def measure_one(q_prev, q, h, law, drive, periods, readout):
+    """:func:`measure` for one trajectory (``drive.sigma[0]``, ``h[0]``), its state in
+    registers: the same :func:`observe` and :func:`tally`, so the same numbers bit for bit.
+    """
+    s = make_step(law, h[0])
+    k = constant(s)
+    sigma = drive.sigma[0]
+    table = drive.sin_table
+    n = table.shape[0]
+    d_prev = to_compression(q_prev[0])
+    d = to_compression(q[0])
+    peak = 0.0
+    acc = TALLY_START
+    cos_sum = np.zeros(drive.harmonics.shape[0])
+    sin_sum = np.zeros_like(cos_sum)
+    index, shift = _lockin_tables(drive)
+    sample = 0
+    for p in range(periods):
+        if p == periods - 1:
+            readout.sums[3, 0] = to_displacement(d_prev)
+            readout.sums[4, 0] = to_displacement(d)
+        index[:] = 0
+        for j in range(n):
+            root, d_next, x, v = observe(law, d_prev, d, forcing(sigma, table[j]), k, s.rate)
+            peak = root if root > peak else peak
+            acc = tally(acc, x, d > 0.0)
+            if readout.stride > 0 and (p * n + j) % readout.stride == 0:
+                _sample(readout.record[sample, :, 0], d, v, x)
+                sample += 1
+            for i in range(index.shape[0]):
+                cos_sum[i] += x * drive.cos_table[index[i]]
+                sin_sum[i] += x * drive.sin_table[index[i]]
+                m = index[i] + shift[i]
+                index[i] = m - n if m >= n else m
+            d_prev = d
+            d = d_next
+        status = _status(d_prev, d, peak, s.limit)
+        if status != OK:
+            return status, 0
+    _finish(readout, 0, acc, cos_sum, sin_sum)
+    q_prev[0] = readout.sums[5, 0] = to_displacement(d_prev)
+    q[0] = readout.sums[6, 0] = to_displacement(d)
+    return OK, -1
+
+
+@njit(cache=True, error_model="numpy")
+def measure(q_prev, q, h, law, drive, periods, readout):
+    """Whole periods of T trajectories (in place on ``q_prev``, ``q``), read like the rig's
+    instruments into ``readout`` (:class:`Readout`, from :func:`new_readout`): the
+    exact Fourier sums of ``N/F_s - 1`` for the listed harmonics (the lock-in), its sum and
+    extremes, the steps out of contact and the flight runs, the state at the start of the
+    last period.
+
+    ``N/F_s = R + c q'`` with ``q' = (q[n+1] - q[n-1]) / (2 h)``; the sums hold
+    ``N/F_s - 1`` so that tiny inputs lose no digits to the static part.
+    Returns ``(status, trajectory)`` as :func:`advance_batch`.
+    """
+    s = make_steps(law, h)
+    table = drive.sin_table
+    sigma = drive.sigma
+    count = q.shape[0]
+    n = table.shape[0]
+    d_prev = compressions(q_prev)
+    d = compressions(q)
+    peak = np.zeros(count)
+    excess = np.zeros(count)
+    speed = np.zeros(count)
+    sums = np.empty((len(TALLY_START), count))  # one row per running sum of tally
+    for r in range(len(TALLY_START)):
+        sums[r, :] = TALLY_START[r]
+    cos_sum = np.zeros((drive.harmonics.shape[0], count))
+    sin_sum = np.zeros_like(cos_sum)
+    index, shift = _lockin_tables(drive)
+    sample = 0
+    for p in range(periods):
+        if p == periods - 1:
+            displacements(d_prev, readout.sums[3])
+            displacements(d, readout.sums[4])
+        index[:] = 0
+        for j in range(n):
+            sj = table[j]
+            for t in range(count):
+                dt = d[t]
+                root, d_next, x, v = observe(
+                    law, d_prev[t], dt, forcing(sigma[t], sj), constants(s, t), s.rate[t]
+                )
+                peak[t] = root if root > peak[t] else peak[t]
+                excess[t] = x
+                speed[t] = v
+                d_prev[t] = dt
+                d[t] = d_next
+            _tally_all(sums, excess, d_prev)
+            if readout.stride > 0 and (p * n + j) % readout.stride == 0:
+                for t in range(count):
+                    _sample(readout.record[sample, :, t], d_prev[t], speed[t], excess[t])
+                sample += 1
+            for i in range(index.shape[0]):
+                ck = drive.cos_table[index[i]]
+                sk = drive.sin_table[index[i]]
+                for t in range(count):
+                    cos_sum[i, t] += excess[t] * ck
+                    sin_sum[i, t] += excess[t] * sk
+                m = index[i] + shift[i]
+                index[i] = m - n if m >= n else m
+        status, bad = _batch_status(d_prev, d, peak, s.limit)
+        if status != OK:
+            return status, bad
+    for t in range(count):
+        acc = (sums[0, t], sums[1, t], sums[2, t], sums[3, t], sums[4, t], sums[5, t], sums[6, t])
+        _finish(readout, t, acc, cos_sum[:, t], sin_sum[:, t])
+    displacements(d_prev, q_prev)
+    displacements(d, q)
+    readout.sums[5, :] = q_prev
+    readout.sums[6, :] = q
+    return OK, -1
+
+
+@njit(cache=True, inline="always")
+def _tally_all(sums, excess, d):
+    """:func:`tally` for every trajectory (``d``: the compression at that step)."""
+    for t in range(excess.shape[0]):
+        acc = (sums[0, t], sums[1, t], sums[2, t], sums[3, t], sums[4, t], sums[5, t], sums[6, t])
+        acc = tally(acc, excess[t], d[t] > 0.0)
+        sums[0, t], sums[1, t], sums[2, t], sums[3, t] = acc[0], acc[1], acc[2], acc[3]
+        sums[4, t], sums[5, t], sums[6, t] = acc[4], acc[5], acc[6]
+
+
+@njit(cache=True, inline="always")
+def _sample(row, d, v, x):
+    """One recorded sample: ``q, q', N/F_s, in contact``."""
+    row[0] = to_displacement(d)
+    row[1] = v
+    row[2] = x + 1.0
+    row[3] = 1.0 if d > 0.0 else 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def restart(q_prev, q, h_old, h_new, law):
+    """Carry a state from step h_old to h_new at a period boundary (excitation phase 0).
+
+    One more step gives ``q'`` and ``q''`` at the boundary (centred differences), and
+    ``q[-1] = q - h_new q' + h_new^2 / 2 q''`` restarts the scheme: second order, the
+    same start a run from ``(q, q')`` would use. Returns the new ``q_prev``.
+    """
+    s = make_step(law, h_old)
+    d_prev = to_compression(q_prev)
+    d = to_compression(q)
+    _, _, d_next = step(law, d_prev, d, 1.0, constant(s))
+    rate = (d_next - d_prev) / (2.0 * h_old)
+    curvature = (d_next - 2.0 * d + d_prev) / (h_old * h_old)
+    return to_displacement(d - h_new * rate + 0.5 * h_new * h_new * curvature)
+
+
+@njit(cache=True, error_model="numpy")
+def retune_batch(q_prev, q, h, h_new, law):
+    """:func:`restart` for every trajectory whose step changes; ``h`` becomes ``h_new``."""
+    for t in range(q.shape[0]):
+        if h_new[t] != h[t]:
+            q_prev[t] = restart(q_prev[t], q[t], h[t], h_new[t], law)
+            h[t] = h_new[t]
+
+
+@njit(cache=True, error_model="numpy")
+def start_from(q, velocity, h, law):
+    """``q_prev`` that starts the scheme at ``(q, q')`` with excitation phase 0."""
+    root, c = terms(law, to_compression(q))
+    acceleration = 1.0 - to_compression(q) * root - c * velocity
+    return q - h * velocity + 0.5 * h * h * acceleration
+
+
+__all__ = [
+    "COUNT_FIELDS",
+    "SUM_FIELDS",
+    "Drive",
+    "Readout",
+    "advance",
+    "advance_batch",
+    "measure",
+    "measure_one",
+    "new_readout",
+    "restart",
+    "retune_batch",
+    "start_from",
+    "step",
+]

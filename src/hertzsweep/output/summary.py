@@ -1,0 +1,237 @@
+"""What a command prints about its result: one function per dataset kind.
+
+Each takes the driver's result and the dataset built from it, ``summary(result, ds)``,
+and returns the text (lines joined by newlines; empty when there is nothing to print).
+Pure: numbers in, text out.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import xarray as xr
+
+if TYPE_CHECKING:  # the results' types only
+    from ..drivers.accuracy import AccuracyReport
+    from ..drivers.continuation import BranchResult
+
+BRANCH_ENDS = {  # Branch.end -> why a branch stopped short
+    "start": "it turned back and left the span where it began",
+    "stalled": "the continuation stalled",
+    "retraced": "it ran back onto itself past a corner of the map",
+    "max-points": "too many points",
+}
+MAX_TABLE_ROWS = 60  # the jump table of a study is printed up to this many grid points
+ROUGH_EXPONENT = 1.0  # contact damping d^n with n below this is not smooth at d = 0
+
+
+def _jump_text(value: float, width: int) -> str:
+    return f"{'-' if math.isnan(value) else f'{value:.4f}':>{width}s}"
+
+
+# --------------------------------------------------------------------------- sweep
+def sweep_summary(result: object, ds: xr.Dataset) -> str:
+    """A short table: per direction and sigma, the H1 peak, the jump, the force extremes
+    and the largest share out of contact."""
+    lines = [
+        f"{'direction':9s} {'sigma':>8s} {'peak H1':>8s} {'at w':>7s} {'jump w':>7s} "
+        f"{'N max':>6s} {'N min':>6s} {'loss':>5s}"
+    ]
+    for direction in ds.direction.values:
+        for sigma in ds.sigma.values:
+            sel = ds.sel(direction=direction, sigma=sigma)
+            h1 = sel.amplitude.isel(harmonic=0).values
+            i = int(np.nanargmax(h1))
+            cells = (
+                f"{direction:9s}",
+                f"{sigma:8.4g}",
+                f"{h1[i]:8.4f}",
+                f"{float(sel.frequency_ratio[i]):7.4f}",
+                _jump_text(float(sel.jump_frequency_ratio), 7),
+                f"{float(sel.force_max.max()):6.3f}",
+                f"{float(sel.force_min.min()):6.3f}",
+                f"{float(sel.contact_loss_fraction.max()):5.2f}",
+            )
+            lines.append(" ".join(cells))
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- trace
+def trace_summary(result: object, ds: xr.Dataset) -> str:
+    """One line per sigma: harmonics, force extremes, contact loss and flights."""
+    lines = []
+    for sigma in ds.sigma.values:
+        sel = ds.sel(sigma=sigma)
+        harmonics = " ".join(
+            f"H{int(k)} {float(a):.4f}"
+            for k, a in zip(ds.harmonic.values, sel.amplitude.values, strict=True)
+        )
+        count = int(sel.flight_count)
+        flights = "no flight"
+        if count:
+            flights = f"{count} flight(s), longest {float(sel.flight_time) * 1e3:.3f} ms"
+        state = "settled" if int(sel.settled) else "NOT settled"
+        if not int(sel.periodic):
+            state += ", not periodic"
+        lines.append(
+            f"sigma {sigma:.4g} w {ds.attrs['frequency_ratio']:.4f} {ds.attrs['branch']}: "
+            f"{harmonics}  N max {float(sel.force_max):.3f} min {float(sel.force_min):.3f}  "
+            f"loss {float(sel.contact_loss_fraction):.3f}  {flights} ({state})"
+        )
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- branch
+def branch_summary(result: BranchResult, ds: xr.Dataset) -> str:
+    """Per sigma: points, stable share, peak H1 and the located bifurcations; a caution
+    where contact damping with n < 1 meets loss of contact."""
+    lines = [
+        f"branch from w = {result.start_frequency_ratio:g} to {result.end_frequency_ratio:g}; "
+        f"{result.steps} integration steps"
+    ]
+    for branch in result.branches:
+        peak = int(np.argmax(branch.amplitude[:, 0]))
+        state = ""
+        if not branch.complete:
+            state = f" (stopped short: {BRANCH_ENDS.get(branch.end, branch.end)})"
+        lines.append(
+            f"sigma {branch.sigma:g}: {branch.size} points, {int(branch.stable.sum())} stable, "
+            f"peak H{int(result.harmonics[0])} {branch.amplitude[peak, 0]:.4f} at "
+            f"w = {branch.frequency_ratio[peak]:.4f}{state}"
+        )
+        if branch.bridges:
+            lines.append(f"  {branch.bridges} gap(s) of the map crossed at fixed w")
+        if not branch.bifurcations:
+            lines.append("  no bifurcation")
+        for found in branch.bifurcations:
+            mu = found.multipliers[0]
+            lines.append(
+                f"  {found.kind:15s} w = {found.frequency_ratio:.6f}  H1 = {found.amplitude:.4f}  "
+                f"multiplier {mu.real:+.6f}{mu.imag:+.6f}j"
+            )
+    law, exponent = ds.attrs.get("damping_law"), ds.attrs.get("damping_exponent", math.inf)
+    rough = law == "contact" and float(exponent) < ROUGH_EXPONENT
+    if rough and any(branch.contact_loss_fraction.max() > 0 for branch in result.branches):
+        lines.append(
+            "note: contact damping with n < 1 makes the scheme's one-period map non-smooth "
+            "where the orbit loses contact; there the branch may stop short or show extra "
+            "folds: check the jumps against a sweep"
+        )
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- study
+def study_summary(result: object, ds: xr.Dataset) -> str:
+    """For a sweep study: the jump frequency ratio per direction at every grid point
+    (empty for a branch study, or beyond :data:`MAX_TABLE_ROWS` points)."""
+    if ds.attrs.get("study_kind") != "sweep" or "jump_frequency_ratio" not in ds:
+        return ""
+    jumps = ds["jump_frequency_ratio"].transpose("direction", ...)
+    grid = [d for d in jumps.dims if d != "direction"]
+    points = list(itertools.product(*(range(jumps.sizes[d]) for d in grid)))
+    if len(points) > MAX_TABLE_ROWS:
+        return ""
+    directions = "".join(f" {'jump ' + str(v):>10s}" for v in jumps.direction.values)
+    lines = [" ".join(f"{d:>16s}" for d in grid) + directions]
+    for point in points:
+        cell = jumps.isel(dict(zip(grid, point, strict=True)))
+        keys = " ".join(f"{str(cell[d].values):>16s}" for d in grid)
+        lines.append(keys + "".join(f" {_jump_text(x, 10)}" for x in cell.values.tolist()))
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- accuracy
+def _number(x: float, spec: str = ".2e") -> str:
+    if math.isnan(x):
+        return "-"
+    if math.isinf(x):
+        return "missed"
+    return format(x, spec)
+
+
+def accuracy_summary(report: AccuracyReport, ds: xr.Dataset) -> str:
+    """The table, the reference check, the observed order, the Pareto front and the
+    recommendation."""
+    lines = [
+        f"{'setting':24s} {'err H1':>9s} {'err H2':>9s} {'err N':>9s} {'err jump':>8s} "
+        f"{'steps':>11s} {'wall s':>7s} {'order':>5s}  pareto"
+    ]
+    scene_index = report.index(report.scene_setting)
+    for i, (rung, err) in enumerate(zip(report.rungs, report.errors, strict=True)):
+        mark = "*" if report.pareto[i] else ""
+        if i == len(report.rungs) - 1:
+            mark += " reference"
+        if i == scene_index:
+            mark += " scene"
+        if i == report.recommended:
+            mark += " recommended"
+        lines.append(
+            f"{rung.setting.label:24s} {_number(err.h1):>9s} {_number(err.h2):>9s} "
+            f"{_number(err.force):>9s} {_number(err.jump, '.4f'):>8s} {rung.cost_steps:11d} "
+            f"{rung.wall_time:7.2f} {_number(report.orders[i], '.2f'):>5s}  {mark.strip()}"
+        )
+    lines += [
+        "",
+        "errors against the reference: H1, H2 max abs over the sweep relative to its",
+        "largest H1, H2; N: force extremes in F_s; jump: |w - w_ref| (missed: one jumped)",
+    ]
+    ref = report.reference.setting.label
+    if report.reference_error is not None:
+        e = report.reference_error
+        lines.append(
+            f"reference {ref}: Richardson estimate of its own error (order 2): "
+            f"H1 {_number(e.h1)}, H2 {_number(e.h2)}, N {_number(e.force)}"
+            + ("" if e.jump == 0 else f", jumps differ by {_number(e.jump, '.4f')}")
+        )
+    if report.settle_check is not None:
+        lines.append(
+            f"settling check: {report.settle_check_label} differs from the reference by "
+            f"H1 {_number(report.settle_check.h1)}"
+        )
+    order = _number(report.observed_order, ".2f")
+    lines.append(f"observed order (steps axis, finest triple N, 2N, 4N): {order}")
+    front = sorted(
+        (r.cost_steps, r.setting.label)
+        for r, on in zip(report.rungs, report.pareto, strict=True)
+        if on
+    )
+    lines.append("Pareto front (steps, err H1), cheapest first: " + ", ".join(f[1] for f in front))
+    if report.target is not None:
+        lines.append(_recommendation(report))
+    lines += [f"note: {note}" for note in report.notes]
+    return "\n".join(lines)
+
+
+def _recommendation(report: AccuracyReport) -> str:
+    target = report.target
+    if report.recommended is None:
+        return f"target {target:g} on H1: no setting of the ladder meets it; refine --steps"
+    rung = report.rungs[report.recommended]
+    err = report.errors[report.recommended]
+    text = (
+        f"target {target:g} on H1 (max abs error relative to the largest H1, against the "
+        f"reference): recommended {rung.setting.label}, error {err.h1:.2e}, "
+        f"{rung.cost_steps} steps"
+    )
+    scene_index = report.index(report.scene_setting)
+    if scene_index is not None:
+        scene_rung = report.rungs[scene_index]
+        ratio = rung.cost_steps / scene_rung.cost_steps
+        scene_error = report.errors[scene_index].h1
+        text += (
+            f" ({ratio:.2f}x the scene's {scene_rung.setting.label}, whose error is "
+            f"{scene_error:.2e})"
+        )
+    return text
+
+
+__all__ = [
+    "accuracy_summary",
+    "branch_summary",
+    "study_summary",
+    "sweep_summary",
+    "trace_summary",
+]
