@@ -1,5 +1,13 @@
 # hertzsweep: run `make help` for the targets.
-PYTHON ?= python3.11
+# The Python that builds .venv: PYTHON=... when given, else the first of these that runs
+# and is 3.11 or newer.
+PYTHON_CANDIDATES := python3.11 python3.12 python3.13 python3
+PYTHON_CHECK := -c 'import sys; sys.exit(sys.version_info < (3, 11))'
+ifeq ($(origin PYTHON),undefined)
+PYTHON := $(shell for p in $(PYTHON_CANDIDATES); do \
+	$$p $(PYTHON_CHECK) >/dev/null 2>&1 && { echo $$p; break; }; done)
+endif
+NO_PYTHON := no Python 3.11 or newer among $(PYTHON_CANDIDATES); give one: make PYTHON=...
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
@@ -13,6 +21,8 @@ help:  ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-13s %s\n", $$1, $$2}'
 
 $(STAMP): pyproject.toml
+	@test -n "$(PYTHON)" || { echo "make: $(NO_PYTHON)" >&2; exit 1; }
+	@$(PYTHON) $(PYTHON_CHECK) || { echo "make: $(PYTHON) is not Python 3.11 or newer" >&2; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test]'

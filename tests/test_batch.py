@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 
 from hertzsweep.drivers import bench
-from hertzsweep.drivers.batch import lockstep, run_sweep_batched
 from hertzsweep.drivers.oscillator import Oscillator, drive
-from hertzsweep.drivers.sweep import run_sweep
+from hertzsweep.drivers.sweep import lockstep, run_sweep
 from hertzsweep.errors import StabilityError
 from hertzsweep.kernels import integrate, scheme
 from hertzsweep.kernels.laws import make_law
@@ -47,8 +46,8 @@ def assert_same(single, batched):
 @pytest.mark.parametrize("damping", LAWS, ids=lambda d: f"{d['law']}-{d.get('exponent', '')}")
 def test_batched_sweep_equals_single_bit_for_bit(damping):
     scene = small_scene(damping)
-    single = run_sweep(scene)
-    batched = run_sweep_batched(scene)
+    single = run_sweep(scene, batched=False)
+    batched = run_sweep(scene)
     assert_same(single, batched)
     # the comparison covers loss of contact and both kinds of dwell
     assert np.nanmax(single.contact_loss_fraction) > 0.3
@@ -58,7 +57,7 @@ def test_batched_sweep_equals_single_bit_for_bit(damping):
 
 def test_single_measured_block_and_one_direction():
     scene = small_scene(LAWS[4], measure_periods=1, directions=["down"])
-    assert_same(run_sweep(scene), run_sweep_batched(scene))
+    assert_same(run_sweep(scene, batched=False), run_sweep(scene))
 
 
 def test_auto_settling_falls_back_to_one_sweep_at_a_time():
@@ -67,7 +66,7 @@ def test_auto_settling_falls_back_to_one_sweep_at_a_time():
     scene = small_scene(LAWS[4], settle_periods="auto", stop=0.65)
     assert not lockstep(scene)
     assert lockstep(small_scene(LAWS[4]))
-    result = run_sweep_batched(scene)
+    result = run_sweep(scene)
     oscillator = Oscillator(scene, scene.excitation.sigma[2])
     w = scene.sweep.frequency_ratios[::-1]  # the down sweep
     state = oscillator.rest(w[0])
@@ -115,9 +114,9 @@ def test_batched_failure_raises_the_single_runs_error():
     )
     assert lockstep(scene)
     with pytest.raises(StabilityError) as single:
-        run_sweep(scene)
+        run_sweep(scene, batched=False)
     with pytest.raises(StabilityError) as batched:
-        run_sweep_batched(scene)
+        run_sweep(scene)
     assert str(batched.value) == str(single.value)
 
 

@@ -81,18 +81,20 @@ def test_output_is_atomic(tmp_path, capsys, monkeypatch):
     out = tmp_path / "x.nc"
     out.write_bytes(b"an earlier run's dataset")
     before = out.stat()
-    original = xr.Dataset.to_netcdf
+    from hertzsweep.output import dataset as dataset_module
+
+    original = dataset_module.write_netcdf
     written = []
 
-    def fail_half_way(self, path, *args, **kwargs):
-        original(self, path, *args, **kwargs)
+    def fail_half_way(ds, path):
+        original(ds, path)
         written.append(Path(path))
         size = Path(path).stat().st_size
         with open(path, "r+b") as handle:
             handle.truncate(size // 2)
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
-    monkeypatch.setattr(xr.Dataset, "to_netcdf", fail_half_way)
+    monkeypatch.setattr(dataset_module, "write_netcdf", fail_half_way)
     code, stdout, err = run_cli(
         [
             "sweep",
@@ -118,9 +120,21 @@ def test_output_is_atomic(tmp_path, capsys, monkeypatch):
 
 
 @pytest.mark.slow
-def test_sigterm_keeps_finished_sweeps(tmp_path):
-    # A long sweep (8 sigma x 2 directions x 1501 dwells, ~2e9 steps) stopped by SIGTERM:
-    # no output file, the finished (direction, sigma) sweeps in OUT.partial.nc, exit 143.
+@pytest.mark.parametrize(
+    ("settle", "wait"),
+    [
+        # lockstep (fixed settling): the sixteen sweeps advance together, 1501 dwells of
+        # 3020 periods (~4e10 trajectory-steps, minutes): at 3 s some dwells are done
+        ("3000", 3.0),
+        # one sweep at a time ("auto"): about 4 s per sweep, 16 sweeps: at 7 s some but
+        # not all have finished
+        ("auto", 7.0),
+    ],
+)
+def test_sigterm_keeps_finished_work(tmp_path, settle, wait):
+    # A long sweep (8 sigma x 2 directions x 1501 dwells) stopped by SIGTERM: no output
+    # file, the finished dwells in OUT.partial.nc with the sweeps that ran to their end
+    # flagged, exit 143.
     import signal
     import subprocess
     import sys
@@ -140,12 +154,12 @@ def test_sigterm_keeps_finished_sweeps(tmp_path):
         "excitation.sigma=[0.001, 0.002, 0.003, 0.004, 0.005, 0.006, 0.007, 0.008]",
         "--set",
         "sweep.step=0.0001",
+        "--set",
+        f"sweep.settle_periods={settle if settle == 'auto' else int(settle)}",
     ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     partial = tmp_path / "long.partial.nc"
-    # one sweep (1501 dwells of 320 periods, 1.2e8 steps) takes about 1.5 s on a quiet
-    # machine, all sixteen at least 18 s: at 10 s some but not all have finished
-    time.sleep(10.0)
+    time.sleep(wait)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 128 + signal.SIGTERM
@@ -153,10 +167,21 @@ def test_sigterm_keeps_finished_sweeps(tmp_path):
     assert not out.exists()
     ds = open_dataset(partial)
     finished = ds.finished.values.astype(bool)
-    assert ds.attrs["complete"] == 0 and 0 < finished.sum() < finished.size
-    assert np.all(np.isfinite(ds.amplitude.values[finished]))
-    # the sweep cut short keeps the dwells it finished; those not reached are NaN
-    assert np.all(np.any(np.isnan(ds.amplitude.values[~finished]), axis=(1, 2)))
+    h1 = ds.amplitude.values[..., 0]  # (direction, sigma, frequency_ratio)
+    done = np.isfinite(h1)
+    assert ds.attrs["complete"] == 0 and 0 < done.sum() < done.size
+    assert np.all(done[finished])  # a finished sweep has every dwell
+    # each sweep keeps the dwells it finished, in its own order (up: from the lowest
+    # frequency, down: from the highest); those not reached are NaN
+    for d, direction in enumerate(ds.direction.values):
+        for s in range(ds.sigma.size):
+            row = done[d, s] if direction == "up" else done[d, s, ::-1]
+            count = int(row.sum())
+            assert np.all(row[:count]) and not np.any(row[count:])
+    if settle == "auto":
+        assert 0 < finished.sum() < finished.size
+    else:  # lockstep: every sweep has done the same number of dwells, none finished
+        assert not finished.any() and len(set(done.sum(axis=2).ravel())) == 1
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 

@@ -568,7 +568,7 @@ def test_real_sweeps_identical_and_damping_changed(tmp_path, capsys):
     assert code == 1
     report = json.loads(out)
     assert report["config_differences"] == [
-        {"key": "damping_ratio", "run": 0.004545, "reference": 0.0045}
+        {"key": "damping.ratio", "run": 0.004545, "reference": 0.0045}
     ]
     amp = report["variables"]["amplitude"]
     assert amp["passed"] is False
@@ -594,7 +594,7 @@ def test_real_sweeps_identical_and_damping_changed(tmp_path, capsys):
         for k, v in amp["worst"]["coords"].items()
     )
     assert f"amplitude: {amp['failing']} of 72 points outside tolerance; worst at {at}: " in text
-    assert "config: damping_ratio: run 0.004545, reference 0.0045" in text
+    assert "config: damping.ratio: run 0.004545, reference 0.0045" in text
 
 
 # --------------------------------------------------------------------------- the smoke scene

@@ -1,5 +1,6 @@
 """`make paper`: the validation table's builder, the measurements behind it, the
-manifest of configs/paper, and (slow) the whole reduced run."""
+manifest of configs/paper, the note on Figure 15's grid step, and (slow) the whole reduced
+run, its figures' metadata included."""
 
 import re
 
@@ -7,6 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from matplotlib.image import imread
+from PIL import Image
 
 from hertzsweep.core.config import load_scene
 from hertzsweep.core.model import check_stability
@@ -157,6 +159,22 @@ def test_manifest_of_the_paper():
     assert load_scene(trace.source, trace.overrides).excitation.sigma == (0.01,)
 
 
+def test_grid_note_on_figure_15():
+    """Figure 15 of `make paper` is swept on a coarser grid than `make fig15` and the
+    README's table: validation.md says so, with both steps."""
+    runs = paper.read_manifest(PAPER_DIR)
+    (fig15,) = [run for run in runs if run.name == "fig15"]
+    assert "sweep.step=0.005" in fig15.overrides
+    coarse = xr.Dataset(attrs={"sweep_step": 0.005})
+    (note,) = paper.grid_notes(runs, {"fig15": coarse})
+    assert note.startswith("`fig15.png` (run `fig15`) sweeps with a frequency step of 0.005")
+    assert "not the 0.0025 of its study file `fig15.toml`" in note
+    assert "README's Figure 15 table" in note
+    assert paper.grid_notes(runs, {"fig15": xr.Dataset(attrs={"sweep_step": 0.0025})}) == []
+    result = paper.PaperResult(grid_notes=[note])
+    assert f"- {note}" in paper.validation_report(result, quick=False)
+
+
 @pytest.mark.parametrize(
     "text, key",
     [
@@ -237,6 +255,17 @@ def test_make_paper_quick(tmp_path, capsys):
         assert paths, run.name
         assert {open_dataset(p).attrs["hertzsweep_kind"] for p in paths} == {run.kind}
     assert "validation table ->" in printed
+    assert "sweeps with a frequency step of 0.01, not the 0.0025" in table
+    # each figure names its dataset(s), the command and the version in its metadata
+    with Image.open(out / "fig14.png") as image:
+        text = dict(image.text)
+    sources = text["Source"].split("; ")
+    assert sources == [str((out / "fig14.nc").resolve()), str((out / "fig14_sweep.nc").resolve())]
+    assert (
+        f"drawn by: hertzsweep paper {PAPER_DIR.resolve()} {out.resolve()} --quick"
+        in (text["Description"])
+    )
+    assert text["Software"].startswith("hertzsweep ")
     study = open_dataset(out / "fig15.nc")
     assert study.attrs["hertzsweep_kind"] == "study"
     assert study.attrs["sweep_step"] == 0.01  # the quick override reached the base scene

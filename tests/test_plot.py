@@ -1,8 +1,10 @@
 """`hertzsweep plot`: every dataset kind renders to a figure of the documented size that
-draws the dataset's numbers, as the paper draws them; bad input ends in exit status 2 and
-one line."""
+draws the dataset's numbers, as the paper draws them; dwells that did not settle or do
+not repeat are drawn apart and named; phases are unwrapped (or wrapped on request); one
+unit convention; files carry metadata; bad input ends in exit status 2 and one line."""
 
 import os
+import re
 import stat
 
 import numpy as np
@@ -10,7 +12,10 @@ import pytest
 import xarray as xr
 from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.image import imread
+from PIL import Image
 
+from hertzsweep import __version__
+from hertzsweep.cli.plot import DEFAULT_DPI
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import HertzsweepError
 from hertzsweep.output import plot
@@ -18,15 +23,20 @@ from hertzsweep.output.dataset import attrs, global_attributes, sweep_dataset, w
 from hertzsweep.output.kinds import KINDS, figure
 
 from .conftest import make_scene, run_cli
+from .test_fit import fit_drawn
+from .test_import import measured_drawn
 
 F0 = 230.776  # [Hz] the paper rig's natural frequency (tests/test_rig.py)
 
-# A small sigma = 1 % sweep across the jump (viscous zeta = 0.45 %): 2 x 2 x 13 dwells.
+# A small sigma = 1 % sweep across the jump (viscous zeta = 0.45 %): 2 x 2 x 13 dwells;
+# 300 settling periods leave 8 of the 52 dwells unsettled (at the jumps and at each sweep's
+# start), so the figures draw both kinds of point.
 SMALL_SWEEP = dict(
     damping={"ratio": 0.0045},
     excitation={"sigma": [0.006, 0.01]},
-    sweep={"start": 0.96, "stop": 1.02, "step": 0.005, "settle_periods": 150},
+    sweep={"start": 0.96, "stop": 1.02, "step": 0.005, "settle_periods": 300},
 )
+UNIT = re.compile(r"\[(1|degree|Hz|ms|%)\]$")  # the one convention: every label ends so
 
 
 @pytest.fixture(scope="module")
@@ -227,30 +237,58 @@ def _assert_drawn(curves, x, y):
     ), f"no curve draws {y}"
 
 
+def _series(ax, marker="o"):
+    """(x, y) of the lines of data with the given marker (not the empty legend proxies)."""
+    return [
+        (np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float))
+        for line in ax.get_lines()
+        if line.get_marker() == marker
+        and line.get_transform() is ax.transData
+        and np.asarray(line.get_xdata()).size
+    ]
+
+
+def _assert_sweep_drawn(ax, ds, direction, sigma, values, phase=False):
+    """One sweep's values on a panel: the converged dwells as one series of circles (NaN
+    at the others), the dwells that did not settle as crosses, those settled but not
+    periodic as triangles; phases unwrapped, equal to the stored ones modulo 360."""
+    w = ds.frequency_ratio.values
+    y = np.asarray(values, float)
+    if phase:
+        drawn = plot.unwrap_degrees(y)
+        np.testing.assert_allclose(np.mod(drawn, 360.0), np.mod(y, 360.0), atol=1e-9)
+        y = drawn
+    i = int(np.flatnonzero(ds.sigma.values == sigma)[0])
+    unsettled, aperiodic = plot.dwell_flags(ds, direction, i)
+    _assert_drawn(_series(ax, "o"), w, np.where(unsettled | aperiodic, np.nan, y))
+    for mask, (marker, _) in ((unsettled, plot.NOT_SETTLED), (aperiodic, plot.NOT_PERIODIC)):
+        if mask.any():
+            _assert_drawn(_series(ax, marker), w[mask], y[mask])
+
+
 def _sweep_drawn(fig, ds, kwargs):
     ds = ds if kwargs["sigma"] is None else plot.select_sigma(ds, kwargs["sigma"])
     view = kwargs["view"] or "harmonics"
-    w = ds.frequency_ratio.values
     if view == "forces":
-        top, bottom = (_curves(ax) for ax in fig.axes[:2])
+        top, bottom = fig.axes[:2]
         for direction in ds.direction.values:
             for sigma in ds.sigma.values:
                 one = ds.sel(direction=direction, sigma=sigma)
-                _assert_drawn(top, w, one.force_max)
-                _assert_drawn(top, w, one.force_min)
-                _assert_drawn(bottom, w, 100 * one.contact_loss_fraction)
-        return len(top) + len(bottom)
+                _assert_sweep_drawn(top, ds, direction, sigma, one.force_max)
+                _assert_sweep_drawn(top, ds, direction, sigma, one.force_min)
+                _assert_sweep_drawn(bottom, ds, direction, sigma, 100 * one.contact_loss_fraction)
+        return len(_series(top)) + len(_series(bottom))
     orders = kwargs["harmonics"] or list(ds.harmonic.values)
     columns = 2 if view == "harmonics" else 1
     count = 0
     for row, k in enumerate(orders):
         for column, name in enumerate(["amplitude", "phase"][:columns]):
-            curves = _curves(fig.axes[columns * row + column])
-            count += len(curves)
+            ax = fig.axes[columns * row + column]
+            count += len(_series(ax))
             for direction in ds.direction.values:
                 for sigma in ds.sigma.values:
                     values = ds[name].sel(direction=direction, sigma=sigma, harmonic=k)
-                    _assert_drawn(curves, w, values)
+                    _assert_sweep_drawn(ax, ds, direction, sigma, values, name == "phase")
     return count
 
 
@@ -322,6 +360,8 @@ DRAWN = {  # kind -> the check that a figure draws the dataset's values; returns
     "branch": _branch_drawn,
     "study": _study_drawn,
     "accuracy": _accuracy_drawn,
+    "measured": measured_drawn,  # tests/test_import.py draws measured datasets
+    "fit": fit_drawn,  # tests/test_fit.py draws fit datasets
 }
 
 
@@ -329,25 +369,26 @@ def test_every_kind_has_a_check():
     assert set(DRAWN) == set(KINDS)
 
 
-# Expected pixel sizes: inches x plot.DPI (100), from the builders' documented sizes;
-# expected curves: one per sigma and direction on each panel (sweep), one per sigma
-# (trace), the stability segments (branch), one per damping law (study), one per error
-# measure and the Pareto front (accuracy).
+# Expected pixel sizes: inches x plot.DPI (200), from the builders' documented sizes;
+# expected curves: one series of converged dwells per sigma and direction on each panel
+# (sweep), one per sigma (trace), the stability segments (branch), one per damping law
+# (study), one per error measure and the Pareto front (accuracy).
 @pytest.mark.parametrize(
-    "fixture, options, size, curves",
+    "fixture, options, inches, curves",
     [
-        ("sweep_ds", [], (1100, 740), 16),  # 2 harmonics, amplitude and phase
-        ("sweep_ds", ["--view", "amplitude", "--harmonic", "1"], (800, 500), 4),
-        ("sweep_ds", ["--view", "forces", "--sigma", "0.01"], (800, 700), 6),
-        ("trace_ds", [], (1300, 610), 2 + 2 * 34),  # 2 sigma rows: force and 34 lines
-        ("trace_ds", ["--view", "time", "--sigma", "0.07"], (1000, 350), 1),
-        ("branch_ds", [], (1100, 740), 12),  # 2 sigma x stable, unstable, stable x 2 rows
-        ("study_ds", [], (850, 600), 4),
-        ("accuracy_ds", [], (900, 650), 4 + 1),  # 4 error measures and the Pareto front
+        ("sweep_ds", [], (11.0, 7.4), 16),  # 2 harmonics, amplitude and phase
+        ("sweep_ds", ["--view", "amplitude", "--harmonic", "1"], (8.0, 5.0), 4),
+        ("sweep_ds", ["--view", "forces", "--sigma", "0.01"], (8.0, 7.0), 6),
+        ("trace_ds", [], (13.0, 6.1), 2 + 2 * 34),  # 2 sigma rows: force and 34 lines
+        ("trace_ds", ["--view", "time", "--sigma", "0.07"], (10.0, 3.5), 1),
+        ("branch_ds", [], (11.0, 7.4), 12),  # 2 sigma x stable, unstable, stable x 2 rows
+        ("study_ds", [], (8.5, 6.0), 4),
+        ("accuracy_ds", [], (9.0, 6.5), 4 + 1),  # 4 error measures and the Pareto front
     ],
 )
-def test_every_kind_renders(fixture, options, size, curves, request, tmp_path, capsys):
+def test_every_kind_renders(fixture, options, inches, curves, request, tmp_path, capsys):
     ds = request.getfixturevalue(fixture)
+    size = tuple(round(x * plot.DPI) for x in inches)
     assert _render(ds, tmp_path, capsys, fixture, *options) == size
     # the figure the command saved draws the dataset's numbers
     kwargs = _options(options)
@@ -424,13 +465,15 @@ def test_not_netcdf_exit_2(tmp_path, capsys):
 def test_sweep_markers_and_hz_axis(sweep_ds):
     fig = figure(sweep_ds, harmonics=[1])
     amplitude_axes = fig.axes[0]
-    lines = [line for line in amplitude_axes.get_lines() if line.get_xdata().size > 1]
+    lines = [line for line in amplitude_axes.get_lines() if line.get_marker() == "o"]
     # one series per sigma and direction: up filled (face = edge colour), down open
     assert len(lines) == 4
     faces = [line.get_markerfacecolor() for line in lines]
     assert sum(face == "none" for face in faces) == 2
-    # the data drawn are the dataset's H1 values
+    # the data drawn are the dataset's H1 values (the converged dwells among them)
     up = sweep_ds.amplitude.sel(direction="up", sigma=0.01, harmonic=1).values
+    unsettled, _ = plot.dwell_flags(sweep_ds, "up", 1)
+    up = np.where(unsettled, np.nan, up)
     assert any(np.array_equal(line.get_ydata(), up, equal_nan=True) for line in lines)
     # a second x axis in Hz: f = w f0 (eq. 15) on the top of the first row
     secondary = [child for child in amplitude_axes.child_axes]
@@ -472,10 +515,22 @@ def test_branch_stable_solid_unstable_dotted_folds(branch_ds):
 def test_branch_overlay_sweep(branch_ds, sweep_ds):
     plain = figure(branch_ds, view="amplitude", harmonics=[1])
     over = figure(branch_ds, view="amplitude", harmonics=[1], overlay=sweep_ds)
-    # two sigma levels match, each with an up and a down sweep: four marker series more
-    assert len(over.axes[0].get_lines()) - len(plain.axes[0].get_lines()) == 4
+    # two sigma levels match, each with an up and a down sweep: four series of circles
+    # more, and the unsettled dwells as crosses
+    assert len(_series(over.axes[0])) - len(_series(plain.axes[0])) == 4
+    assert _series(over.axes[0], "x") and not _series(plain.axes[0], "x")
+    # the legend says the markers are simulated (the paper's are its measurements)
+    texts = [t.get_text() for t in over.axes[0].get_legend().get_texts()]
+    assert "simulated up sweep" in texts and "simulated down sweep" in texts
+    assert plot.NOT_SETTLED[1] in texts
+    assert not any("sweep" in t for t in legend_texts(plain.axes[0]))
     with pytest.raises(HertzsweepError, match="expected a sweep"):
         figure(branch_ds, overlay=branch_ds)
+
+
+def legend_texts(ax):
+    legend = ax.get_legend()
+    return [t.get_text() for t in legend.get_texts()] if legend else []
 
 
 def test_trace_flights_shaded_and_spectrum(trace_ds):
@@ -579,3 +634,192 @@ def test_real_branch_folds(sweep_ds):
         ds.bifurcation_kind.sel(sigma=0.01).values == "fold"
     ]
     assert len(folds) == expected.size == 2  # sigma = 1 %: the two folds of the hysteresis
+
+
+# --------------------------------------------------------------------------- honest figures
+def test_unsettled_and_non_periodic_dwells_drawn_apart_and_named(sweep_ds):
+    ds = sweep_ds.copy(deep=True)
+    settled = ds.settled.values
+    assert 0 < int((settled == 0).sum()) < settled.size  # the fixture has both kinds
+    ds["periodic"].values[0, 0, 5] = 0  # a settled dwell that does not repeat
+    assert settled[0, 0, 5] == 1
+    fig = figure(ds, view="amplitude", harmonics=[1])
+    ax = fig.axes[0]
+    w = ds.frequency_ratio.values
+    for direction in ("up", "down"):
+        for sigma in ds.sigma.values:
+            values = ds.amplitude.sel(direction=direction, sigma=sigma, harmonic=1)
+            _assert_sweep_drawn(ax, ds, direction, sigma, values)
+    (triangle,) = _series(ax, plot.NOT_PERIODIC[0])
+    np.testing.assert_array_equal(triangle[0], [w[5]])
+    crosses = np.concatenate([x for x, _ in _series(ax, plot.NOT_SETTLED[0])])
+    assert crosses.size == int((settled == 0).sum())
+    texts = legend_texts(ax)
+    assert plot.NOT_SETTLED[1] in texts and plot.NOT_PERIODIC[1] in texts
+    # a dataset whose dwells all converged names neither
+    ds["settled"].values[:] = 1
+    ds["periodic"].values[:] = 1
+    texts = legend_texts(figure(ds, view="amplitude", harmonics=[1]).axes[0])
+    assert plot.NOT_SETTLED[1] not in texts and plot.NOT_PERIODIC[1] not in texts
+
+
+def test_forces_view_draws_flags_too(sweep_ds):
+    fig = figure(sweep_ds, view="forces")
+    assert _series(fig.axes[0], "x") and _series(fig.axes[1], "x")
+    assert plot.NOT_SETTLED[1] in legend_texts(fig.axes[0])
+
+
+def test_trace_title_says_not_settled(trace_ds):
+    ds = trace_ds.copy(deep=True)
+    ds["settled"] = ("sigma", np.array([0, 1], dtype=np.int8))
+    ds["periodic"] = ("sigma", np.array([1, 0], dtype=np.int8))
+    fig = figure(ds, view="time")
+    assert plot.NOT_SETTLED[1] in fig.axes[0].get_title(loc="left")
+    assert plot.NOT_PERIODIC[1] in fig.axes[1].get_title(loc="left")
+
+
+def test_study_marks_jumps_read_next_to_unconverged_dwells(study_ds):
+    ds = study_ds.copy(deep=True)
+    w = np.round(np.arange(0.50, 1.0001, 0.0025), 10)
+    jump = ds.jump_frequency_ratio.values
+    jump = np.where(np.isfinite(jump), np.round(jump / 0.0025) * 0.0025, np.nan)
+    ds["jump_frequency_ratio"].values = jump
+    ds = ds.assign_coords(frequency_ratio=w)
+    settled = np.ones((2, 4, 4, w.size), dtype=np.int8)
+    j = int(np.flatnonzero(np.isclose(w, jump[1, 3, 2]))[0])  # down, n = 1.5, sigma = 3 %
+    settled[1, 3, 2, j - 1] = 0  # the dwell after the jump, in down-sweep order
+    ds["settled"] = (("direction", "damping_exponent", "sigma", "frequency_ratio"), settled)
+    flagged = plot.unconverged_jumps(ds, plot.study_jumps(ds))
+    assert flagged.values.sum() == 1 and bool(flagged.sel(damping_exponent=1.5, sigma=0.03))
+    ax = figure(ds).axes[0]
+    (cross,) = _series(ax, "x")
+    np.testing.assert_allclose(cross[0], [3.0])
+    np.testing.assert_allclose(cross[1], [jump[1, 3, 2]])
+    assert plot.JUMP_FLAG in legend_texts(ax)
+    assert plot.JUMP_FLAG not in legend_texts(figure(study_ds).axes[0])
+
+
+def test_unwrap_degrees():
+    # continuous across 360 -> 0, NaN kept (and skipped), the first value in [-180, 180)
+    y = np.array([350.0, 355.0, np.nan, 2.0, 8.0, 100.0, 170.0, 250.0])
+    np.testing.assert_allclose(
+        plot.unwrap_degrees(y), [-10.0, -5.0, np.nan, 2.0, 8.0, 100.0, 170.0, 250.0]
+    )
+    np.testing.assert_allclose(plot.unwrap_degrees([10.0, 300.0, 250.0]), [10.0, -60.0, -110.0])
+    np.testing.assert_allclose(plot.unwrap_degrees([200.0, 210.0]), [-160.0, -150.0])
+    assert np.isnan(plot.unwrap_degrees([np.nan, np.nan])).all()
+    # a jump of the response (here 180, as H2's at a jump of H1) is kept, not unwrapped;
+    # the window's lower end places the first value
+    np.testing.assert_allclose(
+        plot.unwrap_degrees([95.0, 275.0, 355.0, 5.0], low=0.0), [95.0, 275.0, 355.0, 365.0]
+    )
+    np.testing.assert_allclose(plot.unwrap_degrees([300.0, 310.0], low=60.0), [300.0, 310.0])
+
+
+def test_phase_window_at_the_widest_gap():
+    # H1's lag, 10 to 170 degrees: the window [-90, 270) holds it and a lag of -1 alike
+    assert plot.phase_window(np.array([10.0, 90.0, 170.0])) == pytest.approx(-90.0)
+    # H2 from 100 to 380 (stored 20): the gap 20..100 is left out
+    h2 = np.array([100.0, 150.0, 200.0, 250.0, 300.0, 355.0, 5.0, 20.0, np.nan])
+    assert plot.phase_window(h2) == (pytest.approx(60.0))
+    assert plot.phase_window(np.array([np.nan])) == -180.0
+
+
+def test_phases_unwrapped_by_default_wrapped_on_request(sweep_ds, tmp_path, capsys):
+    ds = sweep_ds.copy(deep=True)
+    stored = np.mod(np.linspace(300.0, 420.0, ds.sizes["frequency_ratio"]), 360.0)
+    ds["phase"].values[..., 1] = stored  # H2 crosses 360 -> 0 mid-curve
+    ds["settled"].values[:] = 1
+    fig = figure(ds, view="harmonics", harmonics=[2])
+    (x, y), *_ = _series(fig.axes[1])
+    np.testing.assert_allclose(y, np.linspace(-60.0, 60.0, stored.size), atol=1e-9)
+    assert "unwrapped [degree]" in fig.axes[1].get_ylabel()
+    with plot.phase_convention(plot.WRAPPED):
+        wrapped = figure(ds, view="harmonics", harmonics=[2])
+    (x, y), *_ = _series(wrapped.axes[1])
+    np.testing.assert_array_equal(y, stored)
+    assert wrapped.axes[1].get_ylim() == (-5.0, 365.0)
+    assert "unwrapped" not in wrapped.axes[1].get_ylabel()
+    with pytest.raises(HertzsweepError, match="phase convention"):
+        with plot.phase_convention("radians"):
+            pass
+    source = tmp_path / "s.nc"
+    write_atomic(ds, source)
+    code, _, err = run_cli(["plot", source, "-o", tmp_path / "w.png", "--wrap-phase"], capsys)
+    assert code == 0, err
+
+
+def test_branch_phase_unwrapped_along_the_branch(branch_ds):
+    ds = branch_ds.copy(deep=True)
+    ds["phase"].values[0, :, 0] = np.mod(np.linspace(330.0, 390.0, ds.sizes["point"]), 360.0)
+    fig = figure(ds, view="harmonics", harmonics=[1])
+    drawn = np.concatenate([y for _, y in _curves(fig.axes[1])])
+    assert drawn.max() < 180.0 and drawn.min() == pytest.approx(-30.0)  # no jump to 360
+    with plot.phase_convention(plot.WRAPPED):
+        fig = figure(ds, view="harmonics", harmonics=[1])
+    drawn = np.concatenate([y for _, y in _curves(fig.axes[1])])
+    assert np.nanmax(drawn) > 300.0  # as stored, broken where it wraps
+
+
+FIXTURES_AND_VIEWS = (
+    [("sweep_ds", view) for view in KINDS["sweep"].views]
+    + [("trace_ds", v) for v in KINDS["trace"].views]
+    + [("branch_ds", v) for v in KINDS["branch"].views]
+    + [("study_ds", "jumps"), ("accuracy_ds", "errors")]
+)
+
+
+@pytest.mark.parametrize("fixture, view", FIXTURES_AND_VIEWS)
+def test_one_unit_convention(fixture, view, request, sweep_ds):
+    ds = request.getfixturevalue(fixture)
+    overlay = sweep_ds if fixture == "branch_ds" else None
+    fig = figure(ds, view=view, overlay=overlay)
+    fig.canvas.draw()
+    labels = []
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            text = axis.get_label().get_text()
+            if text and axis.get_visible() and axis.get_label().get_visible():
+                labels.append(text)
+        for child in ax.child_axes:  # the secondary axes in Hz
+            labels += [t for t in (child.get_xlabel(), child.get_ylabel()) if t]
+    assert labels
+    wrong = [label for label in labels if not UNIT.search(label) or "F_s$]" in label]
+    assert not wrong, wrong
+
+
+def test_default_dpi_is_for_print():
+    assert DEFAULT_DPI == plot.DPI == 200
+
+
+def test_png_metadata_and_dpi(sweep_ds, tmp_path, capsys):
+    source = tmp_path / "s.nc"
+    write_atomic(sweep_ds, source)
+    out = tmp_path / "f.png"
+    argv = ["plot", source, "-o", out, "--view", "amplitude", "--harmonic", "1", "--dpi", "150"]
+    code, _, err = run_cli(argv, capsys)
+    assert code == 0, err
+    with Image.open(out) as image:
+        assert image.size == (8.0 * 150, 5.0 * 150)
+        text = dict(image.text)
+    assert text["Software"] == f"hertzsweep {__version__}"
+    assert text["Source"] == str(source.resolve())
+    assert text["Title"].startswith("Simulated stepped-sine sweep")
+    command = f"hertzsweep plot {source.resolve()} -o {out.resolve()} --view amplitude"
+    assert f"drawn by: {command} --harmonic 1 --dpi 150" in text["Description"]
+    assert f"dataset made by: {sweep_ds.attrs['history']}" in text["Description"]
+
+
+def test_pdf_and_svg_metadata(sweep_ds, tmp_path, capsys):
+    source = tmp_path / "s.nc"
+    write_atomic(sweep_ds, source)
+    for suffix, expected in (
+        (".pdf", [b"/Creator (hertzsweep ", b"/Subject (" + str(source.resolve()).encode()]),
+        (".svg", [b"<dc:source>" + str(source.resolve()).encode(), b"hertzsweep plot"]),
+    ):
+        out = tmp_path / f"m{suffix}"
+        code, _, err = run_cli(["plot", source, "-o", out], capsys)
+        assert code == 0, err
+        data = out.read_bytes()
+        for needle in expected:
+            assert needle in data, (suffix, needle)

@@ -12,7 +12,6 @@ import time
 import numpy as np
 import pytest
 
-from hertzsweep.drivers.batch import run_sweep_batched
 from hertzsweep.drivers.study import Engine, canonical_json, case_hash, expand, run_case, run_study
 from hertzsweep.drivers.study import load_study as load_study_file
 from hertzsweep.drivers.sweep import run_sweep
@@ -221,7 +220,7 @@ def test_failed_case_is_reported_and_others_complete(tmp_path, capsys):
     assert ds.case_failed.dims == ("solver_steps_per_period",)
     np.testing.assert_array_equal(ds.case_failed, [0, 1])
     good = ds.sel(solver_steps_per_period=64)
-    assert np.array_equal(good.amplitude.values, run_sweep_batched(cases[0].scene).amplitude)
+    assert np.array_equal(good.amplitude.values, run_sweep(cases[0].scene).amplitude)
     assert np.all(np.isnan(ds.amplitude.sel(solver_steps_per_period=3)))
     assert np.all(ds.settled.sel(solver_steps_per_period=3) == -1)
     assert "StabilityError" in ds.attrs["study_failures"] and ds.attrs["study_failed"] == 1
@@ -294,12 +293,12 @@ def test_driver_hands_results_to_on_case_and_writes_nothing(tmp_path, monkeypatc
         kept.append((case, outcome))
         return outcome
 
-    run = run_study(cases, InProcess(), run_sweep_batched, on_case, skip=cases[1:])
+    run = run_study(cases, InProcess(), run_sweep, on_case, skip=cases[1:])
     assert sorted(tmp_path.rglob("*")) == before
     assert [case for case, _ in kept] == cases[:1] == run.computed and run.resumed == cases[1:]
     assert np.array_equal(kept[0][1].result.amplitude, run_sweep(cases[0].scene).amplitude)
     # a case that fails comes back as its error, with the traceback; the others go on
-    run = run_study(cases, InProcess(), run_sweep_batched, on_case)
+    run = run_study(cases, InProcess(), run_sweep, on_case)
     ((case, error),) = run.failed
     assert case is cases[1] and error["type"] == "StabilityError"
     assert "Traceback" in error["traceback"] and run.computed == cases[:1]

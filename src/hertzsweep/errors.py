@@ -67,6 +67,40 @@ class ConfigError(HertzsweepError):
         return (type(self), (self.source, self.key, self.reason), {"args": self.args})
 
 
+class MeasurementError(HertzsweepError):
+    """A file of measurements (CSV) is wrong.
+
+    Parameters
+    ----------
+    source : str
+        The file.
+    line : int
+        The line of the file (1 is the first), 0 when the file itself is at fault.
+    column : str
+        The column's name; empty when the whole line or file is at fault.
+    reason : str
+        What is wrong, and what is allowed.
+    """
+
+    def __init__(self, source: str, line: int, column: str, reason: str) -> None:
+        self.source = source
+        self.line = line
+        self.column = column
+        self.reason = reason
+        where = (
+            f"{source}: " + (f"line {line}: " if line else "") + (f"{column}: " if column else "")
+        )
+        super().__init__(where + reason)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle by the fields, keeping a message given context by :meth:`with_context`."""
+        return (
+            type(self),
+            (self.source, self.line, self.column, self.reason),
+            {"args": self.args},
+        )
+
+
 class StabilityError(HertzsweepError):
     """The time step is beyond the stability limit of the explicit scheme."""
 

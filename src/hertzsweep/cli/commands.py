@@ -1,28 +1,19 @@
-"""Core commands: rig, validate, sweep."""
+"""``hertzsweep rig`` and ``hertzsweep validate``: the configuration layer only (no
+compiler, no xarray: they start in a blink)."""
 
 from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import click
-import numpy as np
 
 from ..core.config import load_rig
 from ..core.model import check_stability, stability_limit
 from ..core.rig import UNITS, derive
-from ..drivers.sweep import dwell_count
-from ..errors import Interrupted
-from ..output.dataset import write_atomic
-from ..output.kinds import KINDS
 from . import options
 from .group import cli
-from .progress import progress_bar
 
-SWEEP = KINDS["sweep"]
-# the variable OUT.partial.nc adds: which (direction, sigma) sweeps ran to their end
-FINISHED_ATTRS = {"long_name": "that sweep ran to its end", "units": "1"}
 RIG_LABELS = {  # rig constant -> its printed label, with the paper's equation
     "contact_stiffness": "contact stiffness k (eq. 12)",
     "static_compression": "static compression z_s (eq. 2)",
@@ -32,7 +23,16 @@ RIG_LABELS = {  # rig constant -> its printed label, with the paper's equation
     "contact_pressure": "static contact pressure p0 (Hertz)",
     "contact_radius": "static contact radius a (Hertz)",
     "ball_mode_frequency": "ball's own mode (2-dof estimate)",
+    "hertz_contact_stiffness": "contact stiffness k, Hertz (eq. 12)",
+    "hertz_natural_frequency": "natural frequency f0, Hertz (eq. 15)",
 }
+MEASURED_LABELS = {  # the labels that change when the rig gives a measured f0
+    "contact_stiffness": "contact stiffness k (from the measured f0)",
+    "static_compression": "static compression z_s (eq. 2, measured f0)",
+    "natural_circular_frequency": "natural circular frequency Omega (measured)",
+    "natural_frequency": "natural frequency f0 (rig.natural_frequency)",
+}
+HERTZ_ONLY = ("hertz_contact_stiffness", "hertz_natural_frequency")  # shown beside a measured f0
 
 
 def _scene_or_none(path: str):
@@ -48,7 +48,8 @@ def _scene_or_none(path: str):
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
 def rig_command(file: str, as_json: bool) -> None:
     """Derived constants of a rig, or of a scene's rig (eq. 2, 3, 12, 15)."""
-    constants = derive(load_rig(file)).as_dict()
+    rig = load_rig(file)
+    constants = derive(rig).as_dict()
     scene = _scene_or_none(file)
     if scene is not None:
         limit = stability_limit(scene)
@@ -60,8 +61,13 @@ def rig_command(file: str, as_json: bool) -> None:
         }
         click.echo(json.dumps(defined, indent=2))
         return
+    measured = rig.natural_frequency is not None
     for key, value in constants.items():
-        label = RIG_LABELS.get(key, key.replace("_", " "))
+        if key in HERTZ_ONLY and not measured:
+            continue  # the same values as k and f0
+        label = (MEASURED_LABELS if measured else {}).get(key) or RIG_LABELS.get(
+            key, key.replace("_", " ")
+        )
         unit = UNITS.get(key, "")
         text = "n/a (single sphere-plane)" if math.isnan(value) else f"{value:.6g} {unit}"
         click.echo(f"{label:44s} {text}")
@@ -81,34 +87,3 @@ def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
         f"{len(scene.excitation.sigma)} sigma x {scene.sweep.frequency_ratios.size} frequencies; "
         f"steps_per_period {steps} is {steps / limit:.1f}x the stability limit {limit:.1f}"
     )
-
-
-@cli.command("sweep")
-@options.scene_argument
-@options.output_option
-@options.set_option
-@options.quiet_option
-def sweep_command(scene_file: str, output: str, overrides: tuple[str, ...], quiet: bool) -> None:
-    """Stepped-sine sweeps, up and/or down, for every sigma; prints a short table."""
-    scene = options.read_scene(scene_file, overrides)
-    try:
-        with progress_bar(dwell_count(scene), "sweep", not quiet) as progress:
-            result = SWEEP.run(scene, progress)
-    except Interrupted as exc:
-        keep_partial(exc, scene, output)
-        raise
-    options.write_result(SWEEP, result, scene, output)
-
-
-def keep_partial(exc: Interrupted, scene, output: str) -> None:
-    """Write the finished sweeps of an interrupted run to ``OUT.partial.nc`` (atomically;
-    dwells not reached are NaN, attribute ``complete = 0``); the output itself stays absent."""
-    result = exc.partial
-    if result is None or not result.finished.any():
-        return
-    ds = SWEEP.build(result, scene)
-    ds["finished"] = (("direction", "sigma"), result.finished.astype(np.int8), FINISHED_ATTRS)
-    ds.attrs["complete"] = 0
-    partial = Path(output).with_suffix(".partial.nc")
-    write_atomic(ds, partial)
-    click.echo(f"kept {int(result.finished.sum())} finished sweep(s) in {partial}", err=True)

@@ -1,17 +1,60 @@
-"""The click group every command registers on (``@cli.command(...)``)."""
+"""The click group every command registers on (``@cli.command(...)``), loading each
+command's module only when that command runs.
+
+:data:`COMMANDS` is the one list of commands: the module that defines each and the line
+``hertzsweep --help`` shows for it. Listing the commands (``--help``) imports none of
+them, and a command imports only its own module, so ``hertzsweep rig`` never loads the
+compiler, xarray or matplotlib, and ``hertzsweep sweep`` never loads matplotlib or dask.
+"""
 
 from __future__ import annotations
+
+import importlib
 
 import click
 
 from .. import __version__
 
+COMMANDS: dict[str, tuple[str, str]] = {  # name -> (module in hertzsweep.cli, help line)
+    "rig": ("commands", "Derived constants of a rig, or of a scene's rig."),
+    "validate": ("commands", "Check a scene: exit 0, or one line naming file, key, reason."),
+    "sweep": ("sweep", "Stepped-sine sweeps, up and/or down, for every sigma."),
+    "trace": ("trace", "Settled time history at one frequency, its spectrum, its flights."),
+    "branch": ("branch", "Periodic orbits by shooting and continuation: stability, folds."),
+    "study": ("study", "A grid of scenes on a local pool or a Dask cluster."),
+    "accuracy": ("accuracy", "Error against cost for the solver settings."),
+    "plot": ("plot", "The paper-style figure of any dataset."),
+    "compare": ("compare", "A run against a reference dataset (exit 1 outside tolerance)."),
+    "paper": ("paper", "The paper's figures and validation table."),
+    "rerun": ("rerun", "Run again the command that made a dataset, from the dataset."),
+    "import": ("importing", "Measured sweeps or jump frequencies (CSV) into a dataset."),
+    "fit": ("fit", "Fit f0, the damping ratio and the contact law to measurements."),
+    "bench": ("bench", "The project's own speed figures."),
+}
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+class LazyGroup(click.Group):
+    """A group whose commands are imported on first use (see :data:`COMMANDS`)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return list(COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name not in self.commands and name in COMMANDS:
+            importlib.import_module(f"{__package__}.{COMMANDS[name][0]}")  # registers it
+        return self.commands.get(name)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """The command list of ``--help`` from :data:`COMMANDS`, importing nothing."""
+        with formatter.section("Commands"):
+            formatter.write_dl([(name, line) for name, (_, line) in COMMANDS.items()])
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="hertzsweep")
 def cli() -> None:
     """Simulated stepped-sine vibration tests of a preloaded Hertzian contact
     (Rigaud & Perret-Liaudet): sweeps, time histories, periodic branches, studies."""
 
 
-__all__ = ["cli"]
+__all__ = ["COMMANDS", "LazyGroup", "cli"]

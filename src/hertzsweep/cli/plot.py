@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import shlex
+
 import click
 
 from ..errors import HertzsweepError
@@ -10,6 +13,7 @@ from .group import cli
 from .options import read_dataset
 
 VIEW_HELP = "; ".join(f"{kind.name}: {', '.join(kind.views)}" for kind in KINDS.values())
+DEFAULT_DPI = 200  # print quality: hertzsweep.output.plot.DPI (not imported: no matplotlib here)
 
 
 @cli.command("plot")
@@ -42,7 +46,19 @@ VIEW_HELP = "; ".join(f"{kind.name}: {', '.join(kind.views)}" for kind in KINDS.
     "--overlay",
     type=click.Path(exists=True, dir_okay=False),
     metavar="SWEEP.nc",
-    help="A sweep dataset drawn as markers over a branch (as in Figures 13 and 14).",
+    help="A simulated sweep dataset drawn as markers over a branch (as in Figures 13 and 14).",
+)
+@click.option(
+    "--wrap-phase",
+    is_flag=True,
+    help="Draw phases as stored, in [0, 360) (default: unwrapped, continuous along each curve).",
+)
+@click.option(
+    "--dpi",
+    type=click.FloatRange(min=10.0, max=2400.0),
+    default=DEFAULT_DPI,
+    show_default=True,
+    help="Dots per inch of a PNG (and of raster parts of a PDF or SVG).",
 )
 def plot_command(
     input_file: str,
@@ -51,23 +67,51 @@ def plot_command(
     harmonics: tuple[int, ...],
     sigmas: tuple[float, ...],
     overlay: str | None,
+    wrap_phase: bool,
+    dpi: float,
 ) -> None:
     """The paper-style figure of a sweep, trace, branch, study or accuracy dataset,
-    picked by its hertzsweep_kind attribute."""
-    from ..output.plot import figure_format, write_figure
+    picked by its hertzsweep_kind attribute. The file's metadata name the dataset, this
+    command and the version."""
+    from ..output.plot import UNWRAPPED, WRAPPED, figure_format, phase_convention, write_figure
 
     figure_format(output)
     ds = read_dataset(input_file)
     extra = read_dataset(overlay) if overlay else None
     try:
-        fig = figure(ds, view, harmonics or None, sigmas or None, extra)
+        with phase_convention(WRAPPED if wrap_phase else UNWRAPPED):
+            fig = figure(ds, view, harmonics or None, sigmas or None, extra)
     except HertzsweepError as exc:
         raise exc.with_context(input_file) from None
     except (KeyError, AttributeError) as exc:  # a variable or coordinate the kind needs
         kind = ds.attrs.get("hertzsweep_kind")
         raise HertzsweepError(f"{input_file}: not a complete {kind} dataset ({exc})") from None
-    write_figure(fig, output)
+    datasets = [input_file, *([overlay] if overlay else [])]
+    arguments = {"view": view, "harmonic": harmonics, "sigma": sigmas, "overlay": overlay}
+    command = command_line(input_file, output, arguments, wrap_phase, dpi)
+    made_by = str(ds.attrs.get("history", ""))
+    write_figure(fig, output, dpi=dpi, datasets=datasets, command=command, made_by=made_by)
     click.echo(f"wrote {output}")
 
 
-__all__ = ["plot_command"]
+def command_line(
+    input_file: str, output: str, arguments: dict, wrap_phase: bool, dpi: float
+) -> str:
+    """The ``hertzsweep plot`` command that draws a figure, files as absolute paths
+    (``arguments``: option name -> value, a tuple for a repeated option, None if not
+    given)."""
+    argv = ["hertzsweep", "plot", os.path.abspath(input_file), "-o", os.path.abspath(output)]
+    for name, value in arguments.items():
+        for item in value if isinstance(value, tuple) else (value,):
+            if item is None:
+                continue
+            if name == "overlay":
+                item = os.path.abspath(item)
+            argv += [f"--{name}", f"{item:g}" if isinstance(item, float) else str(item)]
+    if wrap_phase:
+        argv.append("--wrap-phase")
+    argv += ["--dpi", f"{dpi:g}"]
+    return shlex.join(argv)
+
+
+__all__ = ["command_line", "plot_command"]

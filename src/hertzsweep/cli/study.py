@@ -17,14 +17,10 @@ import click
 
 from ..drivers.study import DaskCluster, LocalPool, cases_summary, expand, load_study
 from ..errors import Failed, Stopped
-from ..output.dataset import history_line, write_atomic
-from ..output.kinds import KINDS, STUDY_KINDS
-from ..output.study import failure_lines, parts_folder, resumable
 from .group import cli
 from .options import output_option, quiet_option
 from .progress import progress_bar
 
-STUDY = KINDS["study"]
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 BAR_SMOOTHING = 0.1  # cases take seconds to minutes each: an ETA over many of them
 
@@ -89,30 +85,52 @@ def study_command(
     rerun with --resume); 2 a bad study file, key or value."""
     if workers is not None and scheduler is not None:
         raise click.UsageError("--workers and --scheduler exclude each other")
+    # the local workers start (and warm up) first, while the driver imports the output
+    # layer and reads the study: the start-up of both overlaps
+    engine = DaskCluster(scheduler) if scheduler else LocalPool(workers)
+    try:
+        _run(study_file, output, engine, resume, quiet)
+    finally:
+        engine.close()
+
+
+def _run(study_file: str, output: str, engine, resume: bool, quiet: bool) -> None:
+    """The study on an engine: cases, parts, the combined dataset and its summary."""
+    from ..output.dataset import history_line
+    from ..output.kinds import KINDS, STUDY_KINDS
+    from ..output.study import resumable
+
+    study_kind = KINDS["study"]
     study = load_study(study_file, STUDY_KINDS)
     cases = expand(study)
     history = history_line()
-    engine = DaskCluster(scheduler) if scheduler else LocalPool(workers)
-    folder = parts_folder(output)
     resumed = resumable(cases, output) if resume else []
     stop = StopRequest()
     bar = progress_bar(
         len(cases), "study", not quiet, unit="case", initial=len(resumed), smoothing=BAR_SMOOTHING
     )
-    try:
-        with stop.installed(), bar as progress:
-            run = STUDY.run(
-                study,
-                cases,
-                output,
-                engine,
-                history=history,
-                resumed=resumed,
-                progress=progress,
-                stop_requested=stop,
-            )
-    finally:
-        engine.close()
+    with stop.installed(), bar as progress:
+        run = study_kind.run(
+            study,
+            cases,
+            output,
+            engine,
+            history=history,
+            resumed=resumed,
+            progress=progress,
+            stop_requested=stop,
+        )
+    conclude(study_kind, study, cases, output, history, run, engine)
+
+
+def conclude(kind, study, cases, output: str, history: str, run, engine) -> None:
+    """After a study's cases ran: one line per failed case; when stopped by a signal, the
+    finished cases kept for ``--resume``; else ONE dataset built, written and summarised
+    (exit status 1 when cases failed)."""
+    from ..output.dataset import write_atomic
+    from ..output.study import failure_lines, parts_folder
+
+    folder = parts_folder(output)
     failures = failure_lines(run, folder)
     for line in failures:
         click.echo(f"hertzsweep: case failed: {line}", err=True)
@@ -121,10 +139,10 @@ def study_command(
         done = len(run.computed) + len(run.resumed)
         message = f"interrupted by {name}: {done} of {len(cases)} cases finished, kept in {folder}"
         raise Stopped(f"{message}; rerun with --resume", run.stopped_by)
-    ds = STUDY.build(study, cases, output, history, failures)
+    ds = kind.build(study, cases, output, history, failures)
     if ds is not None:
         write_atomic(ds, output)
-        table = STUDY.summary(run, ds)
+        table = kind.summary(run, ds)
         if table:
             click.echo(table)
     click.echo(f"{cases_summary(run)} on {engine.name} ({engine.slots} slots)")
@@ -135,4 +153,4 @@ def study_command(
         raise Failed(f"{len(failures)} of {len(cases)} cases failed{written}")
 
 
-__all__ = ["study_command"]
+__all__ = ["conclude", "study_command"]

@@ -49,6 +49,10 @@ class RigConfig:
     ball_mass : [kg] for the estimate of the ball's own mode (default from radius and
         ``ball_density``).
     ball_density : [kg m^-3] used only for the default ball mass.
+    natural_frequency : [Hz] a measured linearised natural frequency f0, optional. When
+        given it replaces the Hertz value of eq. (15): the contact stiffness k becomes the
+        one that gives this f0 with ``mass`` and ``static_load`` (eq. 2, 3), and z_s and
+        the time scale Omega follow (:func:`hertzsweep.core.rig.derive`).
     """
 
     ball_radius: float
@@ -59,6 +63,7 @@ class RigConfig:
     static_load: float | None = None
     ball_mass: float | None = None
     ball_density: float = STEEL_DENSITY
+    natural_frequency: float | None = None
 
     def __post_init__(self) -> None:
         if self.static_load is None:
@@ -154,6 +159,26 @@ class Scene:
                 out[name] = value
         out["rig_geometry"] = out.pop("geometry")
         return out
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """The resolved scene as the tables of a scene file, rig inline: what
+        :func:`scene_from_dict` reads back into an equal scene (``source`` aside).
+
+        Every value is resolved (the rig's default static load and ball mass included);
+        tuples become lists, ``settle_periods = None`` becomes ``"auto"``, and an optional
+        value left unset (None) is left out, as it would be from a TOML file.
+        """
+        tables: dict[str, dict[str, Any]] = {}
+        for name in CLASSES:
+            table: dict[str, Any] = {}
+            for key, value in asdict(getattr(self, name)).items():
+                if (name, key) == ("sweep", "settle_periods") and value is None:
+                    value = "auto"
+                if value is None:
+                    continue
+                table[key] = list(value) if isinstance(value, tuple) else value
+            tables[name] = table
+        return tables
 
 
 # --------------------------------------------------------------------------- validation
@@ -265,6 +290,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "static_load": _positive,
         "ball_mass": _positive,
         "ball_density": _positive,
+        "natural_frequency": _positive,
     },
     "damping": {
         "ratio": _non_negative,

@@ -21,6 +21,14 @@ stiffness ``k_t = 3/2 k1 delta_s^(1/2)``. It is not defined for a single sphere-
 
 With the paper's E = 210 GPa, nu = 0.29, R = 12.7 mm this gives k = 6.09e9 N m^-3/2;
 the paper prints 5.98e9, which E = 206 GPa gives. We report our value.
+
+A measured natural frequency (``rig.natural_frequency``, f0) replaces the Hertz value:
+``Omega = 2 pi f0``, and eq. (2) and (3) are solved for the contact stiffness that gives
+that Omega with the rig's m and F_s: ``Omega^2 = 3/(2m) k^(2/3) F_s^(1/3)``, so
+``k = (2 m Omega^2 / 3)^(3/2) / F_s^(1/2)`` and ``z_s = (F_s / k)^(2/3) = 3 F_s / (2 m
+Omega^2)``. The Hertz values stay available (``hertz_contact_stiffness``,
+``hertz_natural_frequency``); the static contact pressure and radius and the ball's mode
+remain Hertz estimates from E, nu and R (a measured f0 does not separate them).
 """
 
 from __future__ import annotations
@@ -47,6 +55,9 @@ class RigConstants:
     contact_pressure : [Pa] static peak Hertz pressure p0 of one contact.
     contact_radius : [m] static contact radius a of one contact.
     ball_mode_frequency : [Hz] estimate of the ball's own mode (NaN for sphere-plane).
+    hertz_contact_stiffness : [N m^-3/2] k of eq. (12) from E, nu and R (equal to
+        ``contact_stiffness`` unless the rig gives a measured ``natural_frequency``).
+    hertz_natural_frequency : [Hz] f0 of eq. (15) with the Hertz k.
     """
 
     contact_stiffness: float
@@ -57,6 +68,8 @@ class RigConstants:
     contact_pressure: float
     contact_radius: float
     ball_mode_frequency: float
+    hertz_contact_stiffness: float
+    hertz_natural_frequency: float
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -71,6 +84,8 @@ UNITS = {
     "contact_pressure": "Pa",
     "contact_radius": "m",
     "ball_mode_frequency": "Hz",
+    "hertz_contact_stiffness": "N m-3/2",
+    "hertz_natural_frequency": "Hz",
 }
 
 
@@ -95,12 +110,33 @@ def contact_stiffness(rig: RigConfig) -> float:
     return k1 / 2.0**1.5 if rig.geometry == "double-sphere-plane" else k1
 
 
-def derive(rig: RigConfig) -> RigConstants:
-    """All derived constants of a rig (eq. 2, 3, 12, 15 and Hertz theory)."""
-    load = float(rig.static_load)
-    k = contact_stiffness(rig)
+def circular_frequency(k: float, mass: float, load: float) -> float:
+    """Omega [rad s^-1] of eq. (3) with z_s of eq. (2): ``sqrt(3 k / (2 m) z_s^(1/2))``."""
     z_s = (load / k) ** (2.0 / 3.0)  # eq. (2)
-    omega = math.sqrt(1.5 * k / rig.mass * math.sqrt(z_s))  # eq. (3)
+    return math.sqrt(1.5 * k / mass * math.sqrt(z_s))
+
+
+def stiffness_for_frequency(frequency: float, mass: float, load: float) -> float:
+    """The contact stiffness k [N m^-3/2] whose Omega (eq. 2, 3) is ``2 pi frequency``
+    [Hz] for the mass [kg] and static load [N]: ``(2 m Omega^2 / 3)^(3/2) / F_s^(1/2)``."""
+    omega = 2.0 * math.pi * frequency
+    return (2.0 * mass * omega**2 / 3.0) ** 1.5 / math.sqrt(load)
+
+
+def derive(rig: RigConfig) -> RigConstants:
+    """All derived constants of a rig (eq. 2, 3, 12, 15 and Hertz theory); with a measured
+    ``rig.natural_frequency``, k, z_s and Omega are those of that f0 (module notes)."""
+    load = float(rig.static_load)
+    hertz_k = contact_stiffness(rig)
+    hertz_omega = circular_frequency(hertz_k, rig.mass, load)
+    if rig.natural_frequency is None:
+        k, omega = hertz_k, hertz_omega
+        f0 = omega / (2.0 * math.pi)  # eq. (15)
+    else:  # the measured f0 itself; k from eq. (2), (3)
+        f0 = float(rig.natural_frequency)
+        k = stiffness_for_frequency(f0, rig.mass, load)
+        omega = 2.0 * math.pi * f0
+    z_s = (load / k) ** (2.0 / 3.0)  # eq. (2)
     k1 = sphere_plane_stiffness(rig)
     delta = (load / k1) ** (2.0 / 3.0)  # compression of one sphere-plane contact
     radius = math.sqrt(rig.ball_radius * delta)
@@ -118,9 +154,11 @@ def derive(rig: RigConfig) -> RigConstants:
         contact_stiffness=k,
         static_compression=z_s,
         natural_circular_frequency=omega,
-        natural_frequency=omega / (2.0 * math.pi),
+        natural_frequency=f0,
         static_load=load,
         contact_pressure=pressure,
         contact_radius=radius,
         ball_mode_frequency=ball_mode,
+        hertz_contact_stiffness=hertz_k,
+        hertz_natural_frequency=hertz_omega / (2.0 * math.pi),
     )

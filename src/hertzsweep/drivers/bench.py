@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,7 +34,6 @@ from ..core.model import check_stability
 from ..kernels import integrate, scheme
 from ..kernels.laws import make_law
 from ..kernels.scheme import fma
-from .batch import run_sweep_batched
 from .oscillator import drive
 from .sweep import run_sweep
 
@@ -190,9 +190,9 @@ def bench_batch(counts: tuple[int, ...] = (1, 8, 16), repeats: int = 3) -> dict[
             scene = batch_scene(count, law)
             check_stability(scene)
             small = replace(scene, sweep=replace(scene.sweep, start=scene.sweep.stop))
-            run_sweep_batched(small)  # compile (or load the cache)
-            steps = run_sweep_batched(small).steps * scene.sweep.frequency_ratios.size
-            seconds = _best(lambda scene=scene: run_sweep_batched(scene), repeats)
+            run_sweep(small)  # compile (or load the cache)
+            steps = run_sweep(small).steps * scene.sweep.frequency_ratios.size
+            seconds = _best(lambda scene=scene: run_sweep(scene), repeats)
             out[f"{law}_ns_per_trajectory_step_{count}"] = seconds / steps * 1e9
     return out
 
@@ -310,6 +310,88 @@ def compare_with_settle(scene: Scene) -> dict:
     }
 
 
+# --------------------------------------------------------------------------- commands
+CONFIGS = Path(__file__).resolve().parents[3] / "configs"  # a checkout's scenes and studies
+
+
+def command_lines(python: str, program: str) -> dict[str, list[str]]:
+    """The whole processes timed by :func:`command_times`: bare interpreters as floors, and
+    the commands as a shell, a Makefile or CI runs them (scene files of the checkout)."""
+    scene = str(CONFIGS / "default.toml")
+    study = str(CONFIGS / "studies" / "fig15.toml")
+    return {
+        "python_import_numpy": [python, "-c", "import numpy"],
+        "python_import_numpy_numba": [python, "-c", "import numpy, numba"],
+        "help": [program, "--help"],
+        "rig": [program, "rig", str(CONFIGS / "rig.toml")],
+        "demo_sweep": [program, "sweep", scene, "-o", "{out}", "-q"],
+        "shooting_sweep": [
+            program, "sweep", scene, "-o", "{out}", "-q", "--set", "sweep.steady_state=shooting",
+        ],
+        "fig15_study_1_worker": [program, "study", study, "-o", "{out}", "-q", "--workers", "1"],
+        "fig15_study_2_workers": [program, "study", study, "-o", "{out}", "-q", "--workers", "2"],
+    }  # fmt: skip
+
+
+def command_times(runs: int = 5, study_runs: int = 3) -> dict[str, Any]:
+    """Median wall time [s] of each command of :func:`command_lines` as a process
+    (``runs`` runs each, ``study_runs`` for the studies), the floors in the same run, and
+    the ratios the issues set targets on. Empty when the checkout's configs are missing."""
+    import shutil
+    import statistics
+    import subprocess
+    import sys
+    import tempfile
+
+    program = shutil.which("hertzsweep") or str(Path(sys.executable).with_name("hertzsweep"))
+    if not (CONFIGS / "default.toml").is_file() or not Path(program).exists():
+        return {}
+    out: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as folder:
+        for name, line in command_lines(sys.executable, program).items():
+            count = study_runs if "study" in name else runs
+            seconds = []
+            for run in range(count + 1):  # the first run warms the caches, not timed
+                target = str(Path(folder) / f"{name}-{run}.nc")
+                argv = [part.replace("{out}", target) for part in line]
+                start = time.perf_counter()
+                subprocess.run(argv, check=True, stdout=subprocess.DEVNULL)
+                if run:
+                    seconds.append(time.perf_counter() - start)
+            out[f"command_seconds_{name}"] = statistics.median(seconds)
+    numpy_floor = out["command_seconds_python_import_numpy"]
+    numba_floor = out["command_seconds_python_import_numpy_numba"]
+    out["ratio_help_to_import_numpy"] = out["command_seconds_help"] / numpy_floor
+    out["ratio_rig_to_import_numpy"] = out["command_seconds_rig"] / numpy_floor
+    out["ratio_demo_sweep_to_import_numpy_numba"] = out["command_seconds_demo_sweep"] / numba_floor
+    out["ratio_settle_to_shooting_sweep"] = (
+        out["command_seconds_demo_sweep"] / out["command_seconds_shooting_sweep"]
+    )
+    out["fig15_study_speedup_2_workers"] = (
+        out["command_seconds_fig15_study_1_worker"] / out["command_seconds_fig15_study_2_workers"]
+    )
+    return out
+
+
+def sweep_process_times(scene: Scene, repeats: int = 5) -> dict[str, Any]:
+    """Process (CPU) time of the scene's sweep by settling and by shooting, best of
+    ``repeats``, kernels loaded beforehand: the issue's "shooting at least 10x faster"."""
+    out: dict[str, Any] = {}
+    for method in ("settle", "shooting"):
+        variant = replace(scene, sweep=replace(scene.sweep, steady_state=method))
+        run_sweep(variant)
+        best = np.inf
+        for _ in range(repeats):
+            start = time.process_time()
+            run_sweep(variant)
+            best = min(best, time.process_time() - start)
+        out[f"process_seconds_{method}_sweep"] = best
+    out["process_ratio_settle_to_shooting"] = (
+        out["process_seconds_settle_sweep"] / out["process_seconds_shooting_sweep"]
+    )
+    return out
+
+
 def run_all(quick: bool = False) -> dict[str, Any]:
     """Every figure, as a flat dict (what ``hertzsweep bench --json`` prints)."""
     out: dict[str, Any] = {}
@@ -339,6 +421,11 @@ def run_all(quick: bool = False) -> dict[str, Any]:
     out["speedup_vs_solve_ivp"] = ivp["extrapolated_sweep_seconds"] / seconds
     for key, value in compare_with_settle(bench_scene(16) if quick else scene).items():
         out[f"shooting_{key}"] = value
+    if (CONFIGS / "default.toml").is_file():
+        from ..core.config import load_scene
+
+        out.update(sweep_process_times(load_scene(CONFIGS / "default.toml")))
+    out.update(command_times(runs=2 if quick else 5, study_runs=1 if quick else 3))
     return out
 
 

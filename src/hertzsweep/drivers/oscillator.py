@@ -18,6 +18,7 @@ from ..core.lockin import amplitude_phase
 from ..kernels import integrate, scheme, tangent
 from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Drive, Readout
 from ..kernels.laws import make_law
+from .readings import READING_FIELDS, Readings
 
 PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period below which
 # (or below 10x the scene tolerance) the steady state counts as T-periodic: well above
@@ -69,12 +70,120 @@ class Reading:
     contact_loss_fraction: float
     flight_tau: float
     periodic: bool
-    coefficients: np.ndarray  # the raw sums, for convergence tests between blocks
+    coefficients: np.ndarray  # the raw sums (float[K, 2])
     samples: int
 
-    def vector(self) -> np.ndarray:
-        """Normalised Fourier sums (mean and every harmonic): what 'steady' compares."""
-        return np.concatenate(([self.mean_force - 1.0], self.coefficients.ravel() / self.samples))
+
+BLOCK_ARRAYS = READING_FIELDS + ("periodic", "coefficients")  # a Block's arrays over t
+
+
+@dataclass
+class Block(Readings):
+    """What one measured block read, for T trajectories (or T dwells) at once: the arrays
+    of :class:`Reading` with a leading axis t. The one place readings are computed from
+    the kernels' sums, combined and compared, for one trajectory and many alike.
+
+    Attributes
+    ----------
+    coefficients : float[T, K, 2]
+        The raw Fourier sums (``cos``, ``sin``), for combining blocks and comparing them.
+    samples : int
+        Steps in the block (whole periods times N).
+    """
+
+    periodic: np.ndarray
+    coefficients: np.ndarray
+    samples: int
+
+    @classmethod
+    def read(cls, buffers: Readout, samples: int, h: np.ndarray, tolerance: float) -> Block:
+        """The block of the kernels' ``buffers`` (``samples`` steps of step ``h[t]``);
+        ``periodic`` where the state after the last period returns to its start within
+        ``tolerance`` (relative to the response's scale)."""
+        sums = dict(zip(SUM_FIELDS, buffers.sums, strict=True))
+        counts = dict(zip(COUNT_FIELDS, buffers.counts, strict=True))
+        lead, trail = counts["lead"], counts["trail"]
+        flight_steps = np.where(
+            lead == samples, samples, np.maximum(counts["longest"], lead + trail)
+        )
+        coefficients = np.moveaxis(buffers.coefficients, -1, 0).copy()
+        amplitude, phase = amplitude_phase(coefficients, samples)
+        fmax, fmin = sums["force_max"], sums["force_min"]
+        q_prev_last, q_last = sums["q_prev_last"], sums["q_last"]
+        scale = np.maximum.reduce(
+            [np.abs(q_last), np.abs(q_prev_last), 0.5 * (fmax - fmin), np.full_like(fmax, 1e-300)]
+        )
+        mismatch = np.maximum(np.abs(sums["q"] - q_last), np.abs(sums["q_prev"] - q_prev_last))
+        return cls(
+            amplitude=amplitude,
+            phase=phase,
+            mean_force=1.0 + sums["total"] / samples,
+            force_max=fmax.copy(),
+            force_min=fmin.copy(),
+            contact_loss_fraction=counts["loss"] / samples,
+            flight_tau=flight_steps * h,
+            periodic=mismatch / scale < tolerance,
+            coefficients=coefficients,
+            samples=samples,
+        )
+
+    @classmethod
+    def of(cls, reading: Reading) -> Block:
+        """The block of one :class:`Reading`."""
+        return cls(
+            **{name: np.array([getattr(reading, name)]) for name in BLOCK_ARRAYS},
+            samples=reading.samples,
+        )
+
+    def at(self, t: int) -> Reading:
+        """The :class:`Reading` of trajectory t."""
+        return Reading(
+            amplitude=self.amplitude[t],
+            phase=self.phase[t],
+            mean_force=float(self.mean_force[t]),
+            force_max=float(self.force_max[t]),
+            force_min=float(self.force_min[t]),
+            contact_loss_fraction=float(self.contact_loss_fraction[t]),
+            flight_tau=float(self.flight_tau[t]),
+            periodic=bool(self.periodic[t]),
+            coefficients=self.coefficients[t],
+            samples=self.samples,
+        )
+
+    def then(self, later: Block) -> Block:
+        """The block of this one and the ``later`` one together (sums add, extremes
+        combine, ``periodic`` is the later block's)."""
+        samples = self.samples + later.samples
+        coefficients = self.coefficients + later.coefficients
+        amplitude, phase = amplitude_phase(coefficients, samples)
+
+        def weighted(name: str) -> np.ndarray:
+            a, b = getattr(self, name), getattr(later, name)
+            return (a * self.samples + b * later.samples) / samples
+
+        return Block(
+            amplitude=amplitude,
+            phase=phase,
+            mean_force=weighted("mean_force"),
+            force_max=np.maximum(self.force_max, later.force_max),
+            force_min=np.minimum(self.force_min, later.force_min),
+            contact_loss_fraction=weighted("contact_loss_fraction"),
+            flight_tau=np.maximum(self.flight_tau, later.flight_tau),
+            periodic=later.periodic,
+            coefficients=coefficients,
+            samples=samples,
+        )
+
+    def agrees(self, later: Block, tolerance: float) -> np.ndarray:
+        """Where the two blocks' normalised Fourier sums (the mean and every harmonic)
+        differ by at most ``tolerance`` of the later one's norm: bool[T]."""
+        va, vb = self._vector(), later._vector()
+        scale = np.maximum(np.linalg.norm(vb, axis=1), 1e-300)
+        return np.linalg.norm(va - vb, axis=1) <= tolerance * scale
+
+    def _vector(self) -> np.ndarray:
+        flat = self.coefficients.reshape(self.coefficients.shape[0], -1) / self.samples
+        return np.column_stack([self.mean_force - 1.0, flat])
 
 
 class Oscillator:
@@ -143,55 +252,32 @@ class Oscillator:
         self.steps += self.steps_per_period
         return State(q_prev, q, state.h), status
 
-    def measure(
+    def measure(self, *args, **kwargs) -> tuple[State, Reading]:
+        """:meth:`measure_block` (the same arguments), read as one :class:`Reading`."""
+        state, block = self.measure_block(*args, **kwargs)
+        return state, block.at(0)
+
+    def measure_block(
         self,
         state: State,
         frequency_ratio: float,
         periods: int,
         record: np.ndarray | None = None,
         stride: int = 0,
-    ) -> tuple[State, Reading]:
-        """Integrate whole periods and read them; optionally record every ``stride``-th
-        step into ``record`` (float[M, 4]: q, q', N/F_s, in contact)."""
+    ) -> tuple[State, Block]:
+        """Integrate whole periods and read them (a :class:`Block` of one trajectory);
+        optionally record every ``stride``-th step into ``record`` (float[M, 4]: q, q',
+        N/F_s, in contact)."""
         buffers = integrate.new_readout(
             self.harmonics.size, 1, None if record is None else record[:, :, None], stride
         )
         q_prev, q = np.array([state.q_prev]), np.array([state.q])
-        status, _ = integrate.measure_one(
-            q_prev, q, np.array([state.h]), self.law, self.drive, periods, buffers
-        )
+        h = np.array([state.h])
+        status, _ = integrate.measure_one(q_prev, q, h, self.law, self.drive, periods, buffers)
         self.steps += periods * self.steps_per_period
         self.check_status(status, frequency_ratio)
-        return State(float(q_prev[0]), float(q[0]), state.h), self.reading(
-            buffers, 0, periods, state.h
-        )
-
-    def reading(self, buffers: Readout, t: int, periods: int, h: float) -> Reading:
-        """The :class:`Reading` of trajectory ``t`` of a measured block of ``periods``
-        periods at step h (shared by single and batched runs)."""
-        sums = dict(zip(SUM_FIELDS, buffers.sums[:, t].tolist(), strict=True))
-        counts = dict(zip(COUNT_FIELDS, buffers.counts[:, t].tolist(), strict=True))
-        samples = periods * self.steps_per_period
-        lead, trail = counts["lead"], counts["trail"]
-        flight_steps = samples if lead == samples else max(counts["longest"], lead + trail)
-        coefficients = np.array(buffers.coefficients[:, :, t])
-        amplitude, phase = amplitude_phase(coefficients, samples)
-        fmax, fmin = sums["force_max"], sums["force_min"]
-        q_prev_last, q_last = sums["q_prev_last"], sums["q_last"]
-        scale = max(abs(q_last), abs(q_prev_last), 0.5 * (fmax - fmin), 1e-300)
-        mismatch = max(abs(sums["q"] - q_last), abs(sums["q_prev"] - q_prev_last)) / scale
-        return Reading(
-            amplitude=amplitude,
-            phase=phase,
-            mean_force=1.0 + sums["total"] / samples,
-            force_max=fmax,
-            force_min=fmin,
-            contact_loss_fraction=counts["loss"] / samples,
-            flight_tau=flight_steps * h,
-            periodic=bool(mismatch < self.periodic_tolerance),
-            coefficients=coefficients,
-            samples=samples,
-        )
+        block = Block.read(buffers, periods * self.steps_per_period, h, self.periodic_tolerance)
+        return State(float(q_prev[0]), float(q[0]), state.h), block
 
     def dwell(self, state: State, frequency_ratio: float) -> tuple[State, Reading, bool]:
         """One stepped-sine dwell: retune, settle, measure. Returns ``(state, reading,
@@ -212,49 +298,20 @@ class Oscillator:
                 state, reading = self.measure(state, frequency_ratio, periods)
                 return state, reading, reading.periodic
             first = periods // 2
-            state, head = self.measure(state, frequency_ratio, first)
-            state, tail = self.measure(state, frequency_ratio, periods - first)
-            return state, combine_readings(head, tail), readings_agree(head, tail, sweep.tolerance)
+            state, head = self.measure_block(state, frequency_ratio, first)
+            state, tail = self.measure_block(state, frequency_ratio, periods - first)
+            return state, head.then(tail).at(0), bool(head.agrees(tail, sweep.tolerance)[0])
         block = sweep.measure_periods
-        state, previous = self.measure(state, frequency_ratio, block)
+        state, previous = self.measure_block(state, frequency_ratio, block)
         settled_periods = 0
         while True:
-            state, reading = self.measure(state, frequency_ratio, block)
-            if readings_agree(previous, reading, sweep.tolerance):
-                return state, reading, True
+            state, reading = self.measure_block(state, frequency_ratio, block)
+            if previous.agrees(reading, sweep.tolerance)[0]:
+                return state, reading.at(0), True
             settled_periods += block
             if settled_periods >= sweep.max_settle_periods:
-                return state, reading, False
+                return state, reading.at(0), False
             previous = reading
 
 
-def readings_agree(a: Reading, b: Reading, tolerance: float) -> bool:
-    """Two readings agree when their Fourier sums differ by at most ``tolerance`` of
-    the norm of ``b``'s (relative, over the mean and every requested harmonic)."""
-    va, vb = a.vector(), b.vector()
-    return bool(np.linalg.norm(va - vb) <= tolerance * max(np.linalg.norm(vb), 1e-300))
-
-
-def combine_readings(a: Reading, b: Reading) -> Reading:
-    """The reading of two consecutive measured blocks (sums add; extremes combine)."""
-    samples = a.samples + b.samples
-    coefficients = a.coefficients + b.coefficients
-    amplitude, phase = amplitude_phase(coefficients, samples)
-    return Reading(
-        amplitude=amplitude,
-        phase=phase,
-        mean_force=(a.mean_force * a.samples + b.mean_force * b.samples) / samples,
-        force_max=max(a.force_max, b.force_max),
-        force_min=min(a.force_min, b.force_min),
-        contact_loss_fraction=(
-            a.contact_loss_fraction * a.samples + b.contact_loss_fraction * b.samples
-        )
-        / samples,
-        flight_tau=max(a.flight_tau, b.flight_tau),
-        periodic=b.periodic,
-        coefficients=coefficients,
-        samples=samples,
-    )
-
-
-__all__ = ["Oscillator", "Reading", "State", "combine_readings", "readings_agree"]
+__all__ = ["Block", "Oscillator", "Reading", "State", "drive"]

@@ -32,8 +32,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.model import force_bound
+from ..kernels import integrate, tangent
+from ..kernels.integrate import Readout, new_readout
 from ..kernels.scheme import OK
-from .oscillator import Oscillator, Reading, State
+from ..kernels.tangent import CONVERGED_PERIODS, NewtonSettings
+from .oscillator import Block, Oscillator, Reading, State
 
 NEWTON_TOLERANCE = 1e-10  # residual |P(x) - x|_inf / Q of a converged orbit: 1e4 x above the
 # round-off of one period at N = 256 (about 1e-14 of Q), far below every reading's accuracy
@@ -153,6 +156,16 @@ class PeriodMap:
         return Evaluation(residual, jacobian, monodromy, ok)
 
 
+def newton_settings(
+    period: PeriodMap, monotone: bool, max_iterations: int = MAX_NEWTON_ITERATIONS
+) -> NewtonSettings:
+    """The compiled Newton's settings for an oscillator's period map."""
+    theta = 2.0 * np.pi / period.oscillator.steps_per_period
+    return NewtonSettings(
+        period.scale, theta, NEWTON_TOLERANCE, max_iterations, monotone, STABILITY_MARGIN
+    )
+
+
 def newton(
     period: PeriodMap,
     state: State,
@@ -160,7 +173,8 @@ def newton(
     monotone: bool = False,
     max_iterations: int = MAX_NEWTON_ITERATIONS,
 ) -> Orbit:
-    """Newton on ``P(x) = x`` at fixed w from ``state`` (at that frequency's step).
+    """Newton on ``P(x) = x`` at fixed w from ``state`` (at that frequency's step),
+    compiled (:func:`hertzsweep.kernels.tangent.newton`): one call per solve.
 
     Parameters
     ----------
@@ -171,42 +185,19 @@ def newton(
         monotonicity test in the spirit of Deuflhard's, on the affine-invariant corrections
         rather than on the residuals, which may rise once on the way in).
     """
-    z = period.coordinates(state)
-    residuals: list[float] = []
-    evaluation = None
-    previous = np.inf  # size of the last Newton correction
-    for iteration in range(max_iterations + 1):
-        evaluation = period(z, frequency_ratio)
-        error = evaluation.error
-        residuals.append(error)
-        if not evaluation.ok:
-            break
-        if error <= NEWTON_TOLERANCE:
-            return Orbit(
-                period.state(z, frequency_ratio),
-                frequency_ratio,
-                sorted_multipliers(evaluation.monodromy),
-                tuple(residuals),
-                True,
-            )
-        if iteration == max_iterations:
-            break  # keep the state whose residual and multipliers were evaluated
-        try:
-            correction = np.linalg.solve(evaluation.jacobian[:, :2], evaluation.residual)
-        except np.linalg.LinAlgError:
-            break
-        size = float(np.max(np.abs(correction)))
-        if monotone and size >= previous:
-            break
-        previous = size
-        z = z - correction
-    multipliers = (
-        sorted_multipliers(evaluation.monodromy)
-        if evaluation is not None and evaluation.ok
-        else np.full(2, np.nan + 0j)
+    osc = period.oscillator
+    settings = newton_settings(period, monotone, max_iterations)
+    residuals = np.full(max_iterations + 1, np.inf)
+    monodromy = np.zeros((2, 2))
+    h = osc.step(frequency_ratio)
+    q_prev, q, evaluations, converged = tangent.newton(
+        state.q_prev, state.q, h, osc.law, osc.drive, settings, residuals, monodromy
     )
-    state = period.state(z, frequency_ratio)
-    return Orbit(state, frequency_ratio, multipliers, tuple(residuals), False)
+    osc.steps += evaluations * osc.steps_per_period
+    evaluated = np.isfinite(residuals[evaluations - 1])
+    multipliers = sorted_multipliers(monodromy) if evaluated else np.full(2, np.nan + 0j)
+    orbit = State(q_prev, q, h)
+    return Orbit(orbit, frequency_ratio, multipliers, tuple(residuals[:evaluations]), converged)
 
 
 def mismatch(period: PeriodMap, before: State, after: State) -> float:
@@ -227,17 +218,21 @@ def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods:
     osc = period.oscillator
     periods = 0
     orbit = None
+    tolerance = TRANSIENT_TOLERANCE * period.scale
     while periods < max_periods:
-        block = min(TRANSIENT_BLOCK, max_periods - periods)
-        state = osc.advance(state, frequency_ratio, block - 1)
-        after = osc.advance(state, frequency_ratio, 1)
-        periods += block
-        close = mismatch(period, state, after) <= TRANSIENT_TOLERANCE
-        state = after
-        if close:
-            orbit = newton(period, state, frequency_ratio, monotone=True)
-            if orbit.stable:
-                return orbit
+        q_prev, q, done, status, close = integrate.approach(
+            state.q_prev, state.q, state.h, osc.law, osc.drive, TRANSIENT_BLOCK,
+            max_periods - periods, tolerance,
+        )  # fmt: skip
+        osc.steps += done * osc.steps_per_period
+        osc.check_status(status, frequency_ratio)
+        periods += done
+        state = State(q_prev, q, state.h)
+        if not close:
+            break
+        orbit = newton(period, state, frequency_ratio, monotone=True)
+        if orbit.stable:
+            return orbit
     if orbit is None or orbit.converged:
         orbit = Orbit(state, frequency_ratio, np.full(2, np.nan + 0j), (np.inf,), False)
     return replace(orbit, state=state)
@@ -260,7 +255,7 @@ def shooting_dwell(
     :func:`hertzsweep.sweep.run_sweep` uses when ``[sweep] steady_state = "shooting"``.
 
     Newton from the previous steady state (retuned to this frequency's step); on a stable
-    orbit, measure ``measure_periods`` periods from it. Where Newton fails or lands on an
+    orbit, measure one period of it (:data:`CONVERGED_PERIODS`). Where Newton fails or lands on an
     unstable orbit (a fold was passed), integrate the transient to the new attractor and
     polish by Newton (:func:`find_orbit`). ``settled`` is true when Newton converged on a
     stable orbit; otherwise the reading is of the state the integration reached.
@@ -273,9 +268,44 @@ def shooting_dwell(
     period = PeriodMap(oscillator)
     state = oscillator.retune(state, frequency_ratio)
     orbit = find_orbit(period, state, frequency_ratio)
-    measured = oscillator.scene.sweep.measure_periods
+    measured = CONVERGED_PERIODS if orbit.stable else oscillator.scene.sweep.measure_periods
     state, reading = oscillator.measure(orbit.state, frequency_ratio, measured)
     return state, reading, orbit.stable
+
+
+def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray):
+    """Shooting dwells over a sequence of frequencies (a sweep), as :func:`shooting_dwell`
+    at each, in one compiled loop for as long as Newton lands on a stable orbit
+    (:func:`hertzsweep.kernels.tangent.shooting_walk`); a dwell where it does not (past a
+    fold) goes through :func:`shooting_dwell` (integrate the transient, polish), then the
+    compiled loop resumes. Yields ``(positions, block, settled)`` as a strategy's walk.
+    """
+    n = oscillator.steps_per_period
+    steps = np.array([oscillator.step(w) for w in frequencies])
+    settings = newton_settings(PeriodMap(oscillator), monotone=True)
+    buffers = new_readout(oscillator.harmonics.size, steps.size)
+    x = np.array([state.q_prev, state.q, state.h])
+    start = 0
+    while start < steps.size:
+        stop, periods = tangent.shooting_walk(
+            x, steps, oscillator.law, oscillator.drive, settings, buffers, start
+        )
+        oscillator.steps += periods * n
+        if stop > start:
+            run = slice(start, stop)
+            done = Readout(
+                buffers.coefficients[:, :, run], buffers.sums[:, run], buffers.counts[:, run],
+                buffers.record, 0,
+            )  # fmt: skip
+            samples = CONVERGED_PERIODS * n
+            block = Block.read(done, samples, steps[run], oscillator.periodic_tolerance)
+            yield run, block, np.ones(stop - start, dtype=bool)
+        if stop == steps.size:
+            return
+        state, reading, settled = shooting_dwell(oscillator, State(*x), frequencies[stop])
+        yield slice(stop, stop + 1), Block.of(reading), np.array([settled])
+        x[:] = state.q_prev, state.q, state.h
+        start = stop + 1
 
 
 __all__ = [
@@ -288,5 +318,6 @@ __all__ = [
     "orbit_scale",
     "settle",
     "shooting_dwell",
+    "shooting_walk",
     "sorted_multipliers",
 ]

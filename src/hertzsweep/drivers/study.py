@@ -13,7 +13,7 @@ whole base scene when there is no ``scene`` key, and override single keys of the
 scene when there is one. ``split_sigma = true`` makes every sigma of the grid its own case
 (finer parallelism); by default the sigma values of the grid are all given to each case,
 whose trajectories then run together in one compiled loop
-(:func:`hertzsweep.drivers.batch.run_sweep_batched`).
+(:func:`hertzsweep.drivers.sweep.run_sweep`).
 
 A case is identified by the sha256 of its resolved scene's canonical JSON
 (``Scene.attributes()`` and the kind, :func:`case_hash`). Cases run on an :class:`Engine`:
@@ -42,6 +42,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..core.config import CLASSES, Scene, apply_override, load_raw_scene, scene_from_dict
 from ..errors import ConfigError, HertzsweepError
 
@@ -52,7 +54,7 @@ POLL_SECONDS = 0.2  # how often the driver looks at finished cases and stop requ
 QUEUE_PER_SLOT = 2  # cases in flight per worker slot: keeps workers busy, stops fast
 PRELOADED = (  # imported once by the local pool's fork server, inherited by every worker
     __name__,
-    "hertzsweep.drivers.batch",
+    "hertzsweep.drivers.sweep",
     "hertzsweep.drivers.continuation",
 )
 
@@ -271,7 +273,7 @@ def error_record(exc: BaseException, with_traceback: bool = True) -> dict[str, s
 
 def run_case(runner: Runner, scene: Scene) -> CaseOutcome:
     """Run one case (in a worker process, local or Dask) with the kind's driver, e.g.
-    :func:`hertzsweep.drivers.batch.run_sweep_batched`. Never raises for the case's own
+    :func:`hertzsweep.drivers.sweep.run_sweep`. Never raises for the case's own
     errors: they come back as :attr:`CaseOutcome.error`."""
     t0 = time.perf_counter()
     try:
@@ -304,6 +306,31 @@ def _worker_init(driver: int) -> None:
                 os._exit(1)
 
     threading.Thread(target=watch, name="hertzsweep-driver-watch", daemon=True).start()
+    warm_kernels()
+
+
+def warm_kernels() -> None:
+    """Load the compiled kernels of every damping law (numba's cache; its runtime starts
+    on the first load, about 0.5 s), so that a worker is warm before its first case."""
+    from ..kernels import integrate, scheme
+    from ..kernels.laws import make_law
+    from .oscillator import drive
+
+    scene = scene_from_dict(WARM_SCENE, source="<warm-up>")
+    h = np.full(2, scheme.step_size(1.0, scene.solver.steps_per_period))
+    for law, exponent in (("viscous", 1.5), ("contact", 1.5), ("contact", 1.3)):
+        record = make_law(law, 0.01, exponent)
+        inputs = drive(scene, [0.01, 0.02])
+        integrate.advance_batch(np.zeros(2), np.zeros(2), h.copy(), record, inputs, 1)
+        buffers = integrate.new_readout(len(scene.lockin.harmonics), 2)
+        integrate.measure(np.zeros(2), np.zeros(2), h.copy(), record, inputs, 1, buffers)
+        integrate.retune_batch(np.zeros(2), np.zeros(2), h.copy(), 1.01 * h, record)
+
+
+WARM_SCENE = {  # a tiny scene that loads every kernel a sweep case uses
+    "rig": {"ball_radius": 0.0127, "youngs_modulus": 2.1e11, "poisson_ratio": 0.29, "mass": 11.4},
+    "solver": {"steps_per_period": 16},
+}
 
 
 class Engine:
@@ -347,6 +374,9 @@ class LocalPool(Engine):
         self._context = multiprocessing.get_context("forkserver")
         self._context.set_forkserver_preload(list(PRELOADED))
         self._executor = self._new_executor()
+        # start the workers now: they import and warm up while the driver prepares
+        for _ in range(self.slots):
+            self._executor.submit(os.getpid)
 
     def _new_executor(self):
         from concurrent.futures import ProcessPoolExecutor

@@ -16,9 +16,10 @@ import numpy as np
 from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import HertzsweepError, Interrupted
-from .oscillator import Oscillator, Reading, State
+from ..kernels import integrate, scheme
+from .oscillator import Block, Oscillator, drive
 from .readings import HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
-from .steady import Dwell, settle_dwell, strategy
+from .steady import strategy
 
 Progress = Callable[[int], None]
 
@@ -66,11 +67,16 @@ class SweepResult(Readings):
             **readings,
         )
 
-    def store(self, d: int, s: int, i: int, reading: Reading, settled: bool) -> None:
+    def store_block(
+        self, dims: tuple[np.ndarray, np.ndarray], index: np.ndarray, block: Block, settled
+    ) -> None:
+        """Store a block of T trajectories, trajectory t at ``(dims[0][t], dims[1][t],
+        index[t])``."""
+        at = (*dims, index)
         for name in READING_FIELDS:
-            getattr(self, name)[d, s, i] = getattr(reading, name)
-        self.settled[d, s, i] = settled
-        self.periodic[d, s, i] = reading.periodic
+            getattr(self, name)[at] = getattr(block, name)
+        self.settled[at] = settled
+        self.periodic[at] = block.periodic
 
 
 def sweep_order(frequency_ratios: np.ndarray, direction: str) -> np.ndarray:
@@ -100,41 +106,44 @@ def find_jump(
 
 
 def run_direction(
-    scene: Scene,
-    sigma: float,
-    direction: str,
-    progress: Progress | None = None,
-    store: Callable[[int, Reading, bool], None] | None = None,
-    dwell: Dwell = settle_dwell,
+    scene: Scene, sigma: float, direction: str, result: SweepResult, progress: Progress | None
 ) -> Oscillator:
-    """One stepped-sine sweep at one sigma, from rest. ``store(i, reading, settled)`` is
-    called for each grid index i as it finishes. Returns the oscillator (its step count).
-    """
+    """One stepped-sine sweep at one sigma, from rest, with the scene's steady-state
+    strategy, stored into ``result`` as its dwells finish. Returns the oscillator (its step
+    count)."""
     w = scene.sweep.frequency_ratios
+    order = sweep_order(w, direction)
     oscillator = Oscillator(scene, sigma)
-    state: State | None = None
-    for i in sweep_order(w, direction):
-        if state is None:
-            state = oscillator.rest(w[i])
-        try:
-            state, reading, settled = dwell(oscillator, state, w[i])
-        except HertzsweepError as exc:
-            raise exc.with_context(f"{scene.source}: {direction} sweep") from None
-        if store is not None:
-            store(int(i), reading, settled)
-        if progress is not None:
-            progress(1)
+    d = result.directions.index(direction)
+    s = int(np.flatnonzero(result.sigma == sigma)[0])
+    walk = strategy(scene).walk(oscillator, oscillator.rest(w[order[0]]), w[order])
+    try:
+        for positions, block, settled in walk:
+            index = order[positions]
+            result.store_block(
+                (np.full(index.size, d), np.full(index.size, s)), index, block, settled
+            )
+            if progress is not None:
+                progress(index.size)
+    except HertzsweepError as exc:
+        raise exc.with_context(f"{scene.source}: {direction} sweep") from None
     return oscillator
 
 
-def run_sweep(scene: Scene, progress: Progress | None = None) -> SweepResult:
+def run_sweep(scene: Scene, progress: Progress | None = None, batched: bool = True) -> SweepResult:
     """Up and/or down stepped-sine sweeps for every sigma of the scene.
+
+    With a fixed number of settling periods and the settle steady state (:func:`lockstep`)
+    every sweep (direction x sigma) advances together in one compiled loop
+    (:class:`Lockstep`, many trajectories vectorised): the numbers of one sweep at a time
+    bit for bit (``batched=False`` runs them one at a time).
 
     Raises
     ------
     Interrupted
         On SIGINT (or SIGTERM where the CLI maps it), with the result so far as
-        ``partial``: finished (direction, sigma) sweeps are complete, the rest NaN.
+        ``partial``: the dwells finished are kept, the rest NaN; ``finished`` marks the
+        (direction, sigma) sweeps that ran to their end (in lockstep they end together).
     StabilityError
         The time step is beyond the stability limit (before running, or when the
         compression reached during the run passes it).
@@ -142,16 +151,13 @@ def run_sweep(scene: Scene, progress: Progress | None = None) -> SweepResult:
         The state became non-finite.
     """
     check_stability(scene)
+    if batched and lockstep(scene):
+        return _run_lockstep(scene, progress)
     result = SweepResult.empty(scene)
-    dwell = strategy(scene)
     try:
         for d, direction in enumerate(result.directions):
             for s, sigma in enumerate(result.sigma):
-
-                def store(i: int, reading: Reading, settled: bool, d=d, s=s) -> None:
-                    result.store(d, s, i, reading, settled)
-
-                oscillator = run_direction(scene, sigma, direction, progress, store, dwell)
+                oscillator = run_direction(scene, sigma, direction, result, progress)
                 result.steps += oscillator.steps
                 result.jump_frequency_ratio[d, s] = find_jump(
                     result.amplitude[d, s, :, 0],
@@ -163,6 +169,115 @@ def run_sweep(scene: Scene, progress: Progress | None = None) -> SweepResult:
     except KeyboardInterrupt as exc:
         signal_number = getattr(exc, "signal_number", 2)
         raise Interrupted(result, signal_number) from None
+    return result
+
+
+def lockstep(scene: Scene) -> bool:
+    """Whether the scene's trajectories can dwell in lockstep (fixed settling, settle
+    steady state); otherwise :func:`run_sweep_batched` runs them one by one."""
+    return scene.sweep.settle_periods is not None and scene.sweep.steady_state == "settle"
+
+
+def measured_blocks(measure_periods: int) -> tuple[int, ...]:
+    """The measured blocks of a fixed-settle dwell, as ``Oscillator.dwell`` reads them."""
+    if measure_periods < 2:
+        return (measure_periods,)
+    first = measure_periods // 2
+    return (first, measure_periods - first)
+
+
+class Lockstep:
+    """T trajectories of one scene at their own levels ``sigma`` (float[T]), from rest."""
+
+    def __init__(self, scene: Scene, sigma: np.ndarray, h: np.ndarray) -> None:
+        self.scene = scene
+        self.oscillators = [Oscillator(scene, level) for level in sigma]
+        self.law = self.oscillators[0].law
+        self.drive = drive(scene, sigma)
+        self.h = np.array(h, dtype=float)
+        self.q_prev = np.zeros(sigma.size)
+        self.q = np.zeros(sigma.size)
+        self.steps = 0
+        # one trajectory keeps its state in registers (the same numbers, bit for bit)
+        self.measure = integrate.measure_one if sigma.size == 1 else integrate.measure
+
+    def dwell(self, h_new: np.ndarray) -> tuple[int, int, Block | None, np.ndarray | None]:
+        """Retune to ``h_new``, settle, measure. Returns ``(status, trajectory, block,
+        settled)``: the readings of every trajectory and where they settled."""
+        sweep = self.scene.sweep
+        n = self.oscillators[0].steps_per_period
+        tolerance = self.oscillators[0].periodic_tolerance
+        integrate.retune_batch(self.q_prev, self.q, self.h, h_new, self.law)
+        status, bad = integrate.advance_batch(
+            self.q_prev, self.q, self.h, self.law, self.drive, int(sweep.settle_periods)
+        )
+        self.steps += self.q.size * int(sweep.settle_periods) * n
+        if status != scheme.OK:
+            return status, bad, None, None
+        blocks = []
+        for periods in measured_blocks(sweep.measure_periods):
+            buffers = integrate.new_readout(self.drive.harmonics.size, self.q.size)
+            status, bad = self.measure(
+                self.q_prev, self.q, self.h, self.law, self.drive, periods, buffers
+            )
+            self.steps += self.q.size * periods * n
+            if status != scheme.OK:
+                return status, bad, None, None
+            blocks.append(Block.read(buffers, periods * n, self.h, tolerance))
+        if len(blocks) == 1:
+            return scheme.OK, -1, blocks[0], blocks[0].periodic
+        head, tail = blocks
+        return scheme.OK, -1, head.then(tail), head.agrees(tail, sweep.tolerance)
+
+
+def _run_lockstep(scene: Scene, progress: Progress | None = None) -> SweepResult:
+    """Every (direction, sigma) sweep of the scene, advanced together in lockstep: the
+    numbers of one sweep at a time, bit for bit.
+
+    Parameters
+    ----------
+    scene : Scene
+    progress : callable, optional
+        Called with the number of dwells finished (T after each lockstep dwell).
+
+    Raises
+    ------
+    StabilityError, IntegrationError
+        As :func:`run_sweep` (the first trajectory, in
+        (direction, sigma) order, that failed at the dwell where one failed).
+    Interrupted
+        On SIGINT, with the result so far (lockstep sweeps finish together, so none is
+        marked finished).
+    """
+    result = SweepResult.empty(scene)
+    w = result.frequency_ratio
+    pairs = [(d, s) for d in range(len(result.directions)) for s in range(result.sigma.size)]
+    n = int(scene.solver.steps_per_period)
+    order = np.array([sweep_order(w, result.directions[d]) for d, _ in pairs], dtype=np.int64)
+    steps = np.array([scheme.step_size(x, n) for x in w])
+    run = Lockstep(scene, np.array([result.sigma[s] for _, s in pairs]), steps[order[:, 0]])
+    dims = tuple(np.array(axis) for axis in zip(*pairs, strict=True))  # (direction, sigma)
+    try:
+        for i in range(w.size):
+            index = order[:, i]
+            status, bad, block, settled = run.dwell(steps[index])
+            if status != scheme.OK:
+                direction = result.directions[pairs[bad][0]]
+                try:
+                    run.oscillators[bad].check_status(status, w[index[bad]])
+                except HertzsweepError as exc:
+                    raise exc.with_context(f"{scene.source}: {direction} sweep") from None
+            result.store_block(dims, index, block, settled)
+            if progress is not None:
+                progress(len(pairs))
+    except KeyboardInterrupt as exc:
+        raise Interrupted(result, getattr(exc, "signal_number", 2)) from None
+    result.steps = run.steps
+    for d, s in pairs:
+        result.jump_frequency_ratio[d, s] = find_jump(
+            result.amplitude[d, s, :, 0], w, result.directions[d], scene.sweep.jump_threshold
+        )
+    result.finished[:] = True
     return result
 
 

@@ -238,7 +238,7 @@ def run_trace(
     harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
     samples = periods * samples_per_period
     path = approach_path(scene.sweep.frequency_ratios, w, branch)
-    dwell = strategy(scene)
+    dwell = strategy(scene).dwell
 
     record = np.empty((sigma.size, samples, RECORD_COLUMNS))
     analyser = AmplitudeSpectrum(samples)

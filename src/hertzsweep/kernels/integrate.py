@@ -98,6 +98,31 @@ def advance(q_prev, q, h, law, drive, periods):
     return to_displacement(d_prev), to_displacement(d), OK
 
 
+@njit(cache=True, error_model="numpy")
+def approach(q_prev, q, h, law, drive, block, max_periods, tolerance):
+    """Whole periods of one trajectory in blocks of ``block``, until the state after the
+    last period of a block is within ``tolerance`` (absolute, in q) of the state one period
+    before, or ``max_periods`` are done: a transient run up to its attractor.
+
+    Returns ``(q_prev, q, periods, status, close)``.
+    """
+    periods = 0
+    while periods < max_periods:
+        count = min(block, max_periods - periods)
+        q_prev, q, status = advance(q_prev, q, h, law, drive, count - 1)
+        if status != OK:
+            return q_prev, q, periods, status, False
+        after_prev, after, status = advance(q_prev, q, h, law, drive, 1)
+        if status != OK:
+            return after_prev, after, periods, status, False
+        periods += count
+        close = max(abs(after - q), abs(after_prev - q_prev)) <= tolerance
+        q_prev, q = after_prev, after
+        if close:
+            return q_prev, q, periods, OK, True
+    return q_prev, q, periods, OK, False
+
+
 @njit(cache=True, inline="always")
 def _finite(d_prev, d):
     """Whether the state is finite as a displacement (a finite d near the largest double
@@ -278,16 +303,18 @@ def measure(q_prev, q, h, law, drive, periods, readout):
     sigma = drive.sigma
     count = q.shape[0]
     n = table.shape[0]
-    d_prev = compressions(q_prev)
-    d = compressions(q)
-    peak = np.zeros(count)
-    excess = np.zeros(count)
-    speed = np.zeros(count)
+    # the running arrays are rows of one object (as the sums and the Fourier sums are):
+    # LLVM's run-time alias checks at each loop entry then compare a few objects, not
+    # every pair of arrays: with only 16 trajectories per loop those checks dominate
+    lanes = np.zeros((5, count))
+    d_prev, d, peak, excess, speed = lanes[0], lanes[1], lanes[2], lanes[3], lanes[4]
+    d_prev[:] = compressions(q_prev)
+    d[:] = compressions(q)
     sums = np.empty((len(TALLY_START), count))  # one row per running sum of tally
     for r in range(len(TALLY_START)):
         sums[r, :] = TALLY_START[r]
-    cos_sum = np.zeros((drive.harmonics.shape[0], count))
-    sin_sum = np.zeros_like(cos_sum)
+    fourier = np.zeros((2, drive.harmonics.shape[0], count))
+    cos_sum, sin_sum = fourier[0], fourier[1]
     index, shift = _lockin_tables(drive)
     sample = 0
     for p in range(periods):
@@ -392,6 +419,7 @@ __all__ = [
     "Drive",
     "Readout",
     "advance",
+    "approach",
     "advance_batch",
     "measure",
     "measure_one",

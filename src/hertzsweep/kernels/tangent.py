@@ -27,10 +27,12 @@ taken on the side the step is on).
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
+import numpy as np
 from numba import njit
 
-from .integrate import _finite, step
+from .integrate import Readout, _finite, measure_one, restart, step
 from .laws import slopes
 from .scheme import (
     NON_FINITE,
@@ -104,4 +106,135 @@ def period_map(q_prev, q, h, law, drive, derivative):
     return to_displacement(d_prev), to_displacement(d), OK
 
 
-__all__ = ["period_map"]
+CONVERGED_PERIODS = 1  # periods read on a converged stable orbit: all its periods are one
+# period, to the Newton residual (1e-10 of Q), so one period reads what any number would
+
+NewtonSettings = namedtuple(
+    "NewtonSettings", ["scale", "theta", "tolerance", "max_iterations", "monotone", "margin"]
+)
+"""Newton on the one-period map (:func:`newton`): the orbit scale Q, ``theta = w h =
+2 pi / N`` (the scaled coordinates ``z = (q[0], (q[0] - q[-1]) / theta) / Q``), the residual
+``|P(x) - x|_inf / Q`` that counts as converged, the most iterations, whether to stop as
+soon as a correction fails to shrink, and the margin below 1 of the largest Floquet
+multiplier's modulus that counts as stable."""
+
+
+@njit(cache=True, error_model="numpy")
+def newton(q_prev, q, h, law, drive, settings, residuals, monodromy):
+    """Newton's method on ``P(x) = x`` at a fixed step h, from ``x = (q_prev, q)``.
+
+    In the scaled coordinates z (``x = B z``, ``B = Q [[1, -theta], [1, 0]]``) each iterate
+    solves ``(M - I) B dz = -(P(x) - x)`` (2 x 2, Cramer's rule) with the exact monodromy M
+    of :func:`period_map`.
+
+    Parameters
+    ----------
+    residuals : float64[max_iterations + 1]
+        Output: ``|P(x) - x|_inf / Q`` at each iterate evaluated (inf where a period failed).
+    monodromy : float64[2, 2]
+        Output: M at the last iterate evaluated.
+
+    Returns
+    -------
+    tuple
+        ``(q_prev, q, evaluations, converged)``: the last iterate evaluated (the fixed point
+        when converged), the number of periods integrated.
+    """
+    scale, theta = settings.scale, settings.theta
+    z0 = q / scale
+    z1 = (q - q_prev) / (scale * theta)
+    derivative = np.zeros((2, 3))
+    previous = np.inf  # size of the last correction
+    for iteration in range(settings.max_iterations + 1):
+        x0 = scale * (z0 - theta * z1)
+        x1 = scale * z0
+        p0, p1, status = period_map(x0, x1, h, law, drive, derivative)
+        g0 = (p0 - x0) / scale
+        g1 = (p1 - x1) / scale
+        ok = status == OK and math.isfinite(g0) and math.isfinite(g1)
+        residuals[iteration] = max(abs(g0), abs(g1)) if ok else np.inf
+        monodromy[:, :] = derivative[:, :2]
+        if not ok:
+            return x0, x1, iteration + 1, False
+        if residuals[iteration] <= settings.tolerance:
+            return x0, x1, iteration + 1, True
+        if iteration == settings.max_iterations:
+            break
+        a00, a01 = monodromy[0, 0] - 1.0, monodromy[0, 1]
+        a10, a11 = monodromy[1, 0], monodromy[1, 1] - 1.0
+        j00, j01 = a00 + a01, -theta * a00  # (M - I) [[1, -theta], [1, 0]]
+        j10, j11 = a10 + a11, -theta * a10
+        det = j00 * j11 - j01 * j10
+        if det == 0.0 or not math.isfinite(det):
+            return x0, x1, iteration + 1, False
+        c0 = (g0 * j11 - j01 * g1) / det
+        c1 = (j00 * g1 - j10 * g0) / det
+        size = max(abs(c0), abs(c1))
+        if settings.monotone and size >= previous:
+            return x0, x1, iteration + 1, False
+        previous = size
+        z0 -= c0
+        z1 -= c1
+    return x0, x1, settings.max_iterations + 1, False
+
+
+@njit(cache=True)
+def largest_multiplier(monodromy):
+    """The largest modulus of the eigenvalues of a 2 x 2 monodromy matrix."""
+    trace = monodromy[0, 0] + monodromy[1, 1]
+    det = monodromy[0, 0] * monodromy[1, 1] - monodromy[0, 1] * monodromy[1, 0]
+    disc = trace * trace - 4.0 * det
+    if disc < 0.0:  # a complex pair: |mu|^2 = det
+        return math.sqrt(det)
+    root = math.sqrt(disc)
+    return max(abs(0.5 * (trace + root)), abs(0.5 * (trace - root)))
+
+
+@njit(cache=True, error_model="numpy")
+def shooting_walk(state, steps, law, drive, settings, readout, start):
+    """Stepped-sine dwells by shooting, from dwell ``start`` on, for as long as Newton
+    (monotone) lands on a stable orbit at every one: retune the state (float64[3]: q_prev,
+    q, h) to ``steps[i]``, solve the orbit, read :data:`CONVERGED_PERIODS` of it into column i of
+    ``readout`` (:class:`~hertzsweep.kernels.integrate.Readout` over the dwells).
+
+    Returns ``(stop, periods)``: the first dwell Newton could not settle (``len(steps)`` if
+    none; ``state`` then holds its retuned start) and the periods integrated in all.
+    """
+    residuals = np.empty(settings.max_iterations + 1)
+    monodromy = np.zeros((2, 2))
+    one = Readout(
+        np.zeros((readout.coefficients.shape[0], 2, 1)),
+        np.zeros((readout.sums.shape[0], 1)),
+        np.zeros((readout.counts.shape[0], 1)),
+        np.zeros((0, 4, 1)),
+        0,
+    )
+    periods = 0
+    for i in range(start, steps.shape[0]):
+        if steps[i] != state[2]:
+            state[0] = restart(state[0], state[1], state[2], steps[i], law)
+            state[2] = steps[i]
+        x0, x1, evaluations, converged = newton(
+            state[0], state[1], state[2], law, drive, settings, residuals, monodromy
+        )
+        periods += evaluations
+        if not converged or largest_multiplier(monodromy) >= 1.0 - settings.margin:
+            return i, periods
+        q_prev, q = np.array([x0]), np.array([x1])
+        measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
+        periods += CONVERGED_PERIODS
+        readout.coefficients[:, :, i] = one.coefficients[:, :, 0]
+        readout.sums[:, i] = one.sums[:, 0]
+        readout.counts[:, i] = one.counts[:, 0]
+        state[0], state[1] = q_prev[0], q[0]
+    return steps.shape[0], periods
+
+
+__all__ = [
+    "CONVERGED_PERIODS",
+    "NewtonSettings",
+    "largest_multiplier",
+    "newton",
+    "period_map",
+    "shooting_walk",
+]

@@ -4,12 +4,28 @@ The one table of output attributes is :data:`ATTRIBUTES`; every builder takes na
 from it, so a variable means the same thing in every dataset. Builders take a driver's
 result and the scene and run nothing. Files are written only by the output layer and the
 command line, through :func:`atomic_path` and :func:`write_atomic`: complete or absent.
+
+Every dataset is a record of how it was made (:func:`global_attributes`): the code
+(``hertzsweep_version``, ``git_commit``, the versions of Python, numpy and numba), the
+command line with absolute paths and the working directory (``history``), the whole
+resolved configuration as JSON (``config_json``, a scene file's tables) and the command's
+own arguments (``command_json``): ``hertzsweep rerun`` runs it again from these.
+
+Files are netCDF4 written by the netCDF4 library itself (:func:`write_netcdf`): CF-1.11
+clean as the compliance checker reads it (no ``_FillValue`` on coordinates, strings as
+character arrays: CF labels), and without xarray's writer, which imports dask to look
+for a scheduler.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import functools
+import json
 import os
+import shlex
+import subprocess
+import sys
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -32,11 +48,21 @@ if TYPE_CHECKING:  # the results' types only: building a dataset runs no driver
     from ..drivers.trace import TraceResult
 
 CONVENTIONS = "CF-1.11"
+REFERENCES = (  # the paper whose rig, model and figures hertzsweep reproduces
+    "E. Rigaud and J. Perret-Liaudet, Experiments and numerical results on nonlinear "
+    "vibrations of an impacting Hertzian contact. Part 1: harmonic excitation, Journal of "
+    "Sound and Vibration 265 (2003) 289-307"
+)
+LABEL = None  # the "units" of a string label: CF labels (section 6.1) carry none
+INDEX = np.int32  # integer type of indices, orders and counts (a harmonic, a point, ...)
+STEP_COUNT = np.int64  # integer type of integration-step counts: a study passes 2**31
+GIT_SECONDS = 5.0  # at most this long for each git query of the provenance
 
-# name -> (long_name, units[, extra attributes]); units "1" is dimensionless (of F_s).
-ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
+# name -> (long_name, units[, extra attributes]); units "1" is dimensionless (of F_s),
+# LABEL a string label without units.
+ATTRIBUTES: dict[str, tuple[str, str | None] | tuple[str, str | None, dict[str, Any]]] = {
     # coordinates
-    "direction": ("sweep direction", "1"),
+    "direction": ("sweep direction", LABEL),
     "sigma": ("input level F/F_s", "1"),
     "frequency_ratio": ("excitation frequency over the natural frequency f0", "1"),
     "frequency": ("excitation frequency", "Hz"),
@@ -88,7 +114,7 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "branch_end": (
         "how the branch ended: end, start (left the span where it began), "
         "stalled, retraced, max-points",
-        "1",
+        LABEL,
     ),
     "branch_bridges": (
         "gaps of the branch crossed at fixed frequency (discontinuous contact damping)",
@@ -98,21 +124,24 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
     "bifurcation_frequency": ("frequency of the bifurcation", "Hz"),
     "bifurcation_kind": (
         "kind of bifurcation: fold, period-doubling or neimark-sacker (empty pads)",
-        "1",
+        LABEL,
     ),
     "bifurcation_amplitude": ("amplitude of harmonic 1 of N/F_s at the bifurcation (peak)", "1"),
     "bifurcation_point": ("index of the branch point at the bifurcation (-1 pads)", "1"),
     # study
     "damping_ratio": ("damping ratio zeta (eq. 4)", "1"),
     "damping_exponent": ("exponent n of the contact damping law (eq. 11)", "1"),
-    "damping_law": ("damping law: viscous (eq. 8) or contact (eq. 11)", "1"),
+    "damping_law": ("damping law: viscous (eq. 8) or contact (eq. 11)", LABEL),
     "case_failed": ("the study case failed or has no result (its values are fill values)", "1"),
-    "case_id": ("sha256 of the case's resolved configuration: its part OUT.parts/<id>.nc", "1"),
+    "case_id": (
+        "sha256 of the case's resolved configuration: its part OUT.parts/<id>.nc",
+        LABEL,
+    ),
     # accuracy
-    "setting_label": ("solver settings of the rung", "1"),
+    "setting_label": ("solver settings of the rung", LABEL),
     "steps_per_period": ("integration steps per excitation period", "1"),
-    "settle": ("settling: periods, or auto:tolerance", "1"),
-    "steady_state": ("steady-state method: settle or shooting", "1"),
+    "settle": ("settling: periods, or auto:tolerance", LABEL),
+    "steady_state": ("steady-state method: settle or shooting", LABEL),
     "error_h1": (
         "max abs error of the H1 amplitude over the sweep, relative to the reference's largest H1",
         "1",
@@ -131,38 +160,170 @@ ATTRIBUTES: dict[str, tuple[str, str] | tuple[str, str, dict[str, Any]]] = {
 }
 
 
+def _no_dask_probe() -> None:
+    """Keep xarray from importing dask when it wraps numpy data.
+
+    xarray asks for dask's array type each time it wraps data into a variable
+    (``xarray.core.variable.array_type("dask")``), which imports ``dask.array`` (0.2 s, and
+    distributed's configuration) although no array here is a dask array. While
+    ``dask.array`` has not been imported, no array can be one: answer with no type. Once
+    anything imports dask.array, xarray's own answer is used.
+    """
+    from xarray.core import variable
+
+    original = getattr(variable, "array_type", None)
+    if original is None or getattr(original, "hertzsweep", False):
+        return
+
+    def array_type(mod: str) -> Any:
+        if mod == "dask" and "dask.array" not in sys.modules:
+            return ()
+        return original(mod)
+
+    array_type.hertzsweep = True  # type: ignore[attr-defined]
+    variable.array_type = array_type
+
+
+_no_dask_probe()
+
+
 def attrs(name: str) -> dict[str, Any]:
-    """CF attributes of a named variable from :data:`ATTRIBUTES`."""
+    """CF attributes of a named variable from :data:`ATTRIBUTES` (no ``units`` on a
+    string label)."""
     entry = ATTRIBUTES[name]
-    out: dict[str, Any] = {"long_name": entry[0], "units": entry[1]}
+    out: dict[str, Any] = {"long_name": entry[0]}
+    if entry[1] is not LABEL:
+        out["units"] = entry[1]
     if len(entry) > 2:
         out.update(entry[2])  # type: ignore[misc]
     return out
 
 
-def history_line(argv: list[str] | None = None) -> str:
-    """``history``: UTC time, the command line and the version (CF section 2.6.2)."""
-    import shlex
-    import sys
+# --------------------------------------------------------------------------- provenance
+PATH_OPTIONS = ("-o", "--output", "--overlay")  # options whose value is a file to write or read
 
+
+def absolute_arguments(argv: Sequence[str]) -> list[str]:
+    """A command line with its files as absolute paths: the values of
+    :data:`PATH_OPTIONS` and the arguments that name an existing file or folder (the
+    program's name and every other argument unchanged)."""
+    out = list(argv[:1])
+    after_path_option = False
+    for arg in argv[1:]:
+        name, equals, value = arg.partition("=")
+        if after_path_option or (not arg.startswith("-") and os.path.exists(arg)):
+            arg = os.path.abspath(arg)
+        elif equals and name in PATH_OPTIONS:
+            arg = f"{name}={os.path.abspath(value)}"
+        after_path_option = arg in PATH_OPTIONS
+        out.append(arg)
+    return out
+
+
+def history_line(argv: Sequence[str] | None = None) -> str:
+    """``history`` (CF section 2.6.2): UTC time, the command line with absolute paths,
+    the working directory and the version, e.g. ``2026-01-01T12:00:00Z: hertzsweep sweep
+    /home/me/scene.toml -o /home/me/out.nc (in /home/me; hertzsweep 0.2.0)``."""
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
-    command = shlex.join(argv if argv is not None else ["hertzsweep", *sys.argv[1:]])
-    return f"{now}: {command} (hertzsweep {__version__})"
+    argv = list(argv) if argv is not None else ["hertzsweep", *sys.argv[1:]]
+    command = shlex.join(absolute_arguments(argv))
+    return f"{now}: {command} (in {os.getcwd()}; hertzsweep {__version__})"
+
+
+def _git(root: Path, *args: str) -> str | None:
+    """The output of ``git -C ROOT ARGS`` (stripped), or None when git fails or is
+    missing."""
+    try:
+        done = subprocess.run(
+            ["git", "-C", str(root), *args],
+            capture_output=True,
+            text=True,
+            timeout=GIT_SECONDS,
+            check=False,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return done.stdout.strip() if done.returncode == 0 else None
+
+
+def source_checkout() -> Path | None:
+    """The git checkout this package runs from (``ROOT/src/hertzsweep``), or None for an
+    installed copy (whose folder may lie inside some other checkout)."""
+    package = Path(__file__).resolve().parents[1]
+    root = package.parents[1]
+    if package != root / "src" / "hertzsweep" or not (root / ".git").exists():
+        return None
+    return root
+
+
+@functools.cache
+def provenance() -> dict[str, Any]:
+    """What identifies the code that makes a dataset: ``hertzsweep_version``,
+    ``git_commit`` and ``git_modified`` (1: the package's files differ from that commit)
+    when it runs from a git checkout, and the versions of Python, numpy and numba.
+    Read once per process."""
+    out: dict[str, Any] = {"hertzsweep_version": __version__}
+    root = source_checkout()
+    commit = _git(root, "rev-parse", "HEAD") if root is not None else None
+    if commit:
+        status = _git(root, "status", "--porcelain", "--", "src", "pyproject.toml")
+        out["git_commit"] = commit
+        out["git_modified"] = int(status is None or bool(status))
+    out["python_version"] = sys.version.split()[0]
+    out["numpy_version"] = np.__version__
+    out["numba_version"] = _numba_version()
+    return out
+
+
+def _numba_version() -> str:
+    """numba's version, without importing it when no kernel has run yet."""
+    numba = sys.modules.get("numba")
+    if numba is not None:
+        return str(numba.__version__)
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("numba")
+    except PackageNotFoundError:
+        return "not installed"
+
+
+def to_json(value: Any) -> str:
+    """Compact JSON of a configuration or a command (numpy values as plain numbers)."""
+    return json.dumps(value, default=_json_default, separators=(",", ":"))
+
+
+def _json_default(value: Any) -> Any:
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"not JSON serialisable: {value!r}")
 
 
 def global_attributes(
-    scene: Scene, title: str, kind: str, history: str | None = None
+    scene: Scene,
+    title: str,
+    kind: str,
+    history: str | None = None,
+    command: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The global attributes every dataset carries: conventions, provenance, every
-    resolved config value and the rig's derived constants."""
+    """The global attributes every dataset carries: conventions, the paper, the code
+    (:func:`provenance`), how it was made (``history``; ``config_json``, the scene's
+    tables with the rig inline, :meth:`~hertzsweep.core.config.Scene.to_dict`;
+    ``command_json``, the command and the arguments it ran with, by default
+    ``{"command": kind}``), every resolved config value as a flat attribute and the rig's
+    derived constants."""
     constants = derive(scene.rig)
     out: dict[str, Any] = {
         "Conventions": CONVENTIONS,
         "title": title,
         "history": history or history_line(),
         "source": f"hertzsweep {__version__}",
+        "references": REFERENCES,
         "hertzsweep_kind": kind,
-        "scene_file": scene.source,
+        **provenance(),
+        "config_json": to_json(scene.to_dict()),
+        "command_json": to_json(dict(command) if command is not None else {"command": kind}),
+        "scene_file": _absolute(scene.source),
     }
     for key, value in scene.attributes().items():
         out[key] = _netcdf_value(value)
@@ -171,10 +332,16 @@ def global_attributes(
     return out
 
 
+def _absolute(source: str) -> str:
+    """A scene's source as an absolute path when it names a file (a study case's label, a
+    rerun's ``IN.nc:config_json``, unchanged)."""
+    return os.path.abspath(source) if os.path.isfile(source) else source
+
+
 def _netcdf_value(value: Any) -> Any:
-    if isinstance(value, bool):
+    if isinstance(value, bool | np.bool_):
         return int(value)
-    if isinstance(value, list):
+    if isinstance(value, list | tuple):
         return np.asarray(value)
     return value
 
@@ -218,7 +385,7 @@ def _coords(result: SweepResult, constants: RigConstants) -> dict[str, Any]:
             result.frequency_ratio * constants.natural_frequency,
             attrs("frequency"),
         ),
-        "harmonic": ("harmonic", result.harmonics, attrs("harmonic")),
+        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
     }
 
 
@@ -267,7 +434,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     }
     data.update(_readings(partial(getattr, result), ("sigma",), omega))
     data.update(
-        flight_count=("sigma", result.flight_count.astype(np.int32)),
+        flight_count=("sigma", result.flight_count.astype(INDEX)),
         flight_start=(flight, result.flight_start),
         flight_end=(flight, result.flight_end),
         flight_start_time=(flight, result.flight_start / omega),
@@ -283,12 +450,13 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "tau": ("sample", tau, attrs("tau")),
         "time": ("sample", tau / omega, attrs("time")),
-        "harmonic": ("harmonic", result.harmonics, attrs("harmonic")),
+        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
         "harmonic_order": ("harmonic_order", order, attrs("harmonic_order")),
         "spectrum_frequency": ("harmonic_order", order * w * f0, attrs("spectrum_frequency")),
     }
     title = "Time history and spectrum of a preloaded Hertzian contact at one frequency"
-    ds = _build(data, coords, global_attributes(scene, title, "trace", history))
+    command = trace_command(result, scene)
+    ds = _build(data, coords, global_attributes(scene, title, "trace", history, command))
     _flags(ds, ("settled", "periodic"), YES_NO, "no yes")
     _flags(ds, ("in_contact",), YES_NO, "flight contact")
     complete = np.array([-1, 0, 1], dtype=np.int8)
@@ -357,19 +525,19 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
         arclength=(at_point, per_point("arclength")),
         branch_complete=(("sigma",), np.array([b.complete for b in branches], dtype=np.int8)),
         branch_end=(("sigma",), np.array([b.end for b in branches], dtype=object)),
-        branch_bridges=(("sigma",), np.array([b.bridges for b in branches], dtype=np.int32)),
+        branch_bridges=(("sigma",), np.array([b.bridges for b in branches], dtype=INDEX)),
         bifurcation_frequency_ratio=(at_found, found_w),
         bifurcation_frequency=(at_found, found_w * f0),
         bifurcation_kind=(at_found, per_bifurcation("kind", "", object)),
         bifurcation_amplitude=(at_found, per_bifurcation("amplitude")),
-        bifurcation_point=(at_found, per_bifurcation("point", -1, np.int32)),
+        bifurcation_point=(at_found, per_bifurcation("point", -1, INDEX)),
     )
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),
-        "point": ("point", np.arange(n_points, dtype=np.int32), attrs("point")),
-        "harmonic": ("harmonic", result.harmonics, attrs("harmonic")),
-        "multiplier": ("multiplier", np.arange(2, dtype=np.int32), attrs("multiplier")),
-        "bifurcation": ("bifurcation", np.arange(n_found, dtype=np.int32), attrs("bifurcation")),
+        "point": ("point", np.arange(n_points, dtype=INDEX), attrs("point")),
+        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
+        "multiplier": ("multiplier", np.arange(2, dtype=INDEX), attrs("multiplier")),
+        "bifurcation": ("bifurcation", np.arange(n_found, dtype=INDEX), attrs("bifurcation")),
     }
     title = (
         "Periodic orbits of a preloaded Hertzian contact by shooting and pseudo-arclength "
@@ -407,7 +575,7 @@ def accuracy_dataset(
     settings = [r.setting for r in rungs]
     setting_values = {
         "setting_label": np.array([s.label for s in settings], dtype=object),
-        "steps_per_period": np.array([s.steps_per_period for s in settings]),
+        "steps_per_period": np.array([s.steps_per_period for s in settings], dtype=INDEX),
         "settle": np.array([s.settle for s in settings], dtype=object),
         "steady_state": np.array([s.steady_state for s in settings], dtype=object),
     }
@@ -418,7 +586,7 @@ def accuracy_dataset(
         "error_h2": np.array([e.h2 for e in errors]),
         "error_force": np.array([e.force for e in errors]),
         "error_jump": np.array([e.jump for e in errors]),
-        "cost_steps": np.array([r.cost_steps for r in rungs], dtype=np.int64),
+        "cost_steps": np.array([r.cost_steps for r in rungs], dtype=STEP_COUNT),
         "wall_time": np.array([r.wall_time for r in rungs]),
         "pareto": np.asarray(report.pareto, dtype=np.int8),
         "order_h1": np.asarray(report.orders, dtype=float),
@@ -426,7 +594,8 @@ def accuracy_dataset(
     }
     data: Variables = {name: (("setting",), v) for name, v in values.items()}
     title = "Error against cost of the solver settings"
-    ds = _build(data, coords, global_attributes(scene, title, "accuracy", history))
+    command = accuracy_command(report)
+    ds = _build(data, coords, global_attributes(scene, title, "accuracy", history, command))
     _flags(ds, ("pareto",), YES_NO, "no yes")
     recommended = report.recommended
     extra: dict[str, Any] = {
@@ -448,6 +617,39 @@ def accuracy_dataset(
         extra["settle_check_h1"] = report.settle_check.h1
         extra["settle_check_label"] = report.settle_check_label
     return merge_attributes(ds, extra)
+
+
+# --------------------------------------------------------------------------- commands
+def trace_command(result: TraceResult, scene: Scene) -> dict[str, Any]:
+    """``command_json`` of a trace: the arguments of ``hertzsweep trace`` that made it
+    (``samples_per_period`` None: every step)."""
+    every_step = int(result.samples_per_period) == scene.solver.steps_per_period
+    return {
+        "command": "trace",
+        "frequency_ratio": float(result.frequency_ratio),
+        "periods": int(result.periods),
+        "branch": str(result.branch),
+        "samples_per_period": None if every_step else int(result.samples_per_period),
+    }
+
+
+def accuracy_command(report: AccuracyReport) -> dict[str, Any]:
+    """``command_json`` of an accuracy run: the ``--target`` and the ladder that ran, each
+    rung's setting (reference last; the scene's own setting is re-derived from the
+    scene). A rung that failed is not in the report and not in the ladder."""
+    return {
+        "command": "accuracy",
+        "target": report.target,
+        "settings": [
+            {
+                "steps_per_period": int(rung.setting.steps_per_period),
+                "settle_periods": rung.setting.settle_periods,
+                "tolerance": rung.setting.tolerance,
+                "steady_state": rung.setting.steady_state,
+            }
+            for rung in report.rungs
+        ],
+    }
 
 
 # --------------------------------------------------------------------------- files
@@ -477,15 +679,127 @@ def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]
 
 
 def write_atomic(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write netCDF4 through :func:`atomic_path`: the output is complete or absent."""
-    encoding = {
-        name: {"zlib": True, "complevel": 4}
-        for name, var in ds.data_vars.items()
-        if var.dtype.kind == "f" and var.size > 1
-    }
+    """Write netCDF4 (:func:`write_netcdf`) through :func:`atomic_path`: the output is
+    complete or absent."""
     with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
+        write_netcdf(ds, tmp)
     return Path(path)
+
+
+COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}  # float arrays: about 2x smaller
+
+
+def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> None:
+    """Write a dataset as netCDF4 with the netCDF4 library, CF-1.11 clean, so that
+    :func:`open_dataset` (xarray) reads back the same variables, coordinates and
+    attributes:
+
+    - coordinates have no ``_FillValue`` (CF 2.5.1); float data variables have NaN;
+    - strings are character arrays along a ``stringN`` dimension with
+      ``_Encoding = "utf-8"`` (CF 6.1 labels; xarray decodes them to strings), so a
+      string coordinate such as ``direction`` is a label, not a coordinate variable,
+      which CF requires to be numeric;
+    - a data variable names the non-dimension coordinates on its dimensions in
+      ``coordinates`` (CF 5), which xarray reads back as coordinates;
+    - booleans are written as int8; float data arrays are compressed.
+
+    Raises
+    ------
+    TypeError
+        A variable of a type netCDF has no place for (complex, datetime, object other
+        than strings), or an attribute that is None.
+    """
+    import netCDF4
+
+    with netCDF4.Dataset(path, "w", format="NETCDF4") as nc:
+        for key, value in ds.attrs.items():
+            nc.setncattr(key, _attribute(key, value))
+        for dim, size in ds.sizes.items():
+            nc.createDimension(str(dim), size)
+        coordinates = _coordinates_attributes(ds)
+        names = [*ds.coords, *ds.data_vars]
+        for name in names:
+            var = ds.variables[name]
+            is_coordinate = name in ds.coords
+            extra = {"coordinates": coordinates[name]} if name in coordinates else {}
+            _write_variable(nc, str(name), var, is_coordinate, extra)
+
+
+def _coordinates_attributes(ds: xr.Dataset) -> dict[Any, str]:
+    """``coordinates`` of each data variable: the non-dimension coordinates whose
+    dimensions are all among its own."""
+    auxiliary = [name for name in ds.coords if name not in ds.dims]
+    out = {}
+    for name, var in ds.data_vars.items():
+        mine = [str(c) for c in auxiliary if set(ds[c].dims) <= set(var.dims)]
+        if mine:
+            out[name] = " ".join(mine)
+    return out
+
+
+def _write_variable(
+    nc: Any, name: str, var: xr.Variable, is_coordinate: bool, extra: Mapping[str, str]
+) -> None:
+    """One variable: its type, dimensions, fill value, compression and attributes."""
+    import netCDF4
+
+    values = np.asarray(var.values)
+    kind = values.dtype.kind
+    dims = tuple(str(d) for d in var.dims)
+    options: dict[str, Any] = {}
+    attributes = dict(var.attrs)
+    if kind in "OUS":
+        values = _utf8(name, values)
+        width = max(1, values.dtype.itemsize)
+        char_dim = f"string{width}"
+        if char_dim not in nc.dimensions:
+            nc.createDimension(char_dim, width)
+        values = netCDF4.stringtochar(values.astype(f"S{width}"))
+        dtype: Any = "S1"
+        dims = (*dims, char_dim)
+        attributes["_Encoding"] = "utf-8"
+    elif kind == "b":
+        values, dtype = values.astype(np.int8), np.int8
+    elif kind in "iuf":
+        dtype = values.dtype
+    else:
+        raise TypeError(f"{name}: cannot write a {values.dtype} variable to netCDF")
+    if is_coordinate:
+        options["fill_value"] = False  # CF 2.5.1: no _FillValue on coordinate data
+    elif kind == "f":
+        options["fill_value"] = np.nan
+    if kind == "f" and not is_coordinate and values.size > 1:
+        options.update(COMPRESSION)
+    variable = nc.createVariable(name, dtype, dims, **options)
+    encoding = attributes.pop("_Encoding", None)
+    if encoding is not None:
+        variable.setncattr("_Encoding", encoding)
+    for key, value in {**attributes, **extra}.items():
+        variable.setncattr(key, _attribute(f"{name}.{key}", value))
+    if dtype == "S1":
+        variable.set_auto_chartostring(False)  # the character array is written as is
+    if values.ndim == 0:
+        variable.assignValue(values)
+    else:
+        variable[...] = values
+
+
+def _utf8(name: str, values: np.ndarray) -> np.ndarray:
+    """Strings as UTF-8 bytes (fixed width)."""
+    try:
+        return np.char.encode(values.astype(str), "utf-8")
+    except (TypeError, ValueError, UnicodeError) as exc:
+        raise TypeError(f"{name}: expected strings ({exc})") from None
+
+
+def _attribute(name: str, value: Any) -> Any:
+    """An attribute value netCDF can hold: bools as 0/1, lists as arrays."""
+    if value is None:
+        raise TypeError(f"attribute {name}: None has no netCDF form")
+    value = _netcdf_value(value)
+    if isinstance(value, np.ndarray) and value.dtype.kind == "b":
+        return value.astype(np.int8)
+    return value
 
 
 def _umask() -> int:

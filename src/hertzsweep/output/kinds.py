@@ -35,6 +35,8 @@ if TYPE_CHECKING:  # matplotlib only where a figure is drawn
 
 SCENE = "scene"  # a kind that runs on a scene file
 STUDY = "study"  # a kind that runs on a study file
+MEASURED = "measured"  # a kind made from measurements (a CSV file or a measured dataset)
+MEASURED_VIEWS = ("auto", "harmonics", "amplitude", "jumps")  # auto: by what was measured
 
 
 @dataclass(frozen=True)
@@ -46,7 +48,8 @@ class Kind:
     name : str
         The ``hertzsweep_kind`` attribute of its datasets.
     source : str
-        What it runs on: :data:`SCENE` or :data:`STUDY` (a study file).
+        What it runs on: :data:`SCENE`, :data:`STUDY` (a study file) or :data:`MEASURED`
+        (measurements: ``import`` reads them, ``fit`` fits a scene to them).
     views : tuple of str
         The views of its figure; the first is the default.
     run : callable
@@ -120,9 +123,9 @@ def _run_study(
 
 def _sweep_case() -> Runner:
     """A study's sweep case: every trajectory of the case in one compiled loop."""
-    from ..drivers.batch import run_sweep_batched
+    from ..drivers.sweep import run_sweep
 
-    return run_sweep_batched
+    return run_sweep
 
 
 def _branch_case() -> Runner:
@@ -166,6 +169,57 @@ def _draw_accuracy(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> F
     return accuracy_figure(ds)
 
 
+# --------------------------------------------------------------------------- measurements
+def _run_import(*args: Any, **kwargs: Any) -> Any:
+    """:func:`hertzsweep.output.measured.read_measurements`."""
+    from .measured import read_measurements
+
+    return read_measurements(*args, **kwargs)
+
+
+def _run_fit(*args: Any, **kwargs: Any) -> Any:
+    """:func:`hertzsweep.drivers.fit.fit`."""
+    from ..drivers.fit import fit
+
+    return fit(*args, **kwargs)
+
+
+def _build_measured(*args: Any, **kwargs: Any) -> xr.Dataset:
+    from .measured import measured_dataset
+
+    return measured_dataset(*args, **kwargs)
+
+
+def _build_fit(*args: Any, **kwargs: Any) -> xr.Dataset:
+    from .measured import fit_dataset
+
+    return fit_dataset(*args, **kwargs)
+
+
+def _summary_measured(result: Any, ds: xr.Dataset) -> str:
+    from .measured import measured_summary
+
+    return measured_summary(result, ds)
+
+
+def _summary_fit(result: Any, ds: xr.Dataset) -> str:
+    from .measured import fit_summary
+
+    return fit_summary(result, ds)
+
+
+def _draw_measured(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Figure:
+    from .plot_measured import measured_figure
+
+    return measured_figure(ds, view, harmonics)
+
+
+def _draw_fit(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Figure:
+    from .plot_measured import fit_figure
+
+    return fit_figure(ds, view)
+
+
 # --------------------------------------------------------------------------- the registry
 KINDS: dict[str, Kind] = {  # name, source, views, run, build, draw, summary[, extras]
     kind.name: kind
@@ -180,6 +234,9 @@ KINDS: dict[str, Kind] = {  # name, source, views, run, build, draw, summary[, e
              summary.study_summary),
         Kind("accuracy", SCENE, ("errors",), _run_accuracy, accuracy_dataset,
              _draw_accuracy, summary.accuracy_summary),
+        Kind("measured", MEASURED, MEASURED_VIEWS, _run_import, _build_measured,
+             _draw_measured, _summary_measured),
+        Kind("fit", MEASURED, MEASURED_VIEWS, _run_fit, _build_fit, _draw_fit, _summary_fit),
     )
 }  # fmt: skip
 STUDY_KINDS = tuple(name for name, kind in KINDS.items() if kind.case_driver is not None)
@@ -239,7 +296,9 @@ def figure(
     sigma : sequence of float, optional
         The input levels to draw (datasets with a ``sigma`` dimension); default all.
     overlay : xarray.Dataset, optional
-        A sweep dataset drawn as markers over a branch (Figures 13, 14).
+        A sweep dataset drawn as markers over a branch (Figures 13, 14), or a measured
+        dataset over a sweep, branch or study figure
+        (:func:`hertzsweep.output.plot_measured.overlay_measured`).
 
     Raises
     ------
@@ -252,7 +311,23 @@ def figure(
         from .plot import select_sigma
 
         ds = select_sigma(ds, sigma)
+    if overlay is not None and overlay.attrs.get("hertzsweep_kind") == MEASURED:
+        from .plot_measured import overlay_measured
+
+        fig = kind.draw(ds, view, harmonics, None)
+        overlay_measured(fig, ds, overlay, view, harmonics)
+        return fig
     return kind.draw(ds, view, harmonics, overlay)
 
 
-__all__ = ["KINDS", "SCENE", "STUDY", "STUDY_KINDS", "Kind", "check_view", "figure", "kind_of"]
+__all__ = [
+    "KINDS",
+    "MEASURED",
+    "SCENE",
+    "STUDY",
+    "STUDY_KINDS",
+    "Kind",
+    "check_view",
+    "figure",
+    "kind_of",
+]

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import math
+import shlex
 import shutil
 import time
 from collections.abc import Callable, Mapping
@@ -31,6 +32,7 @@ from ..core.config import (
     load_scene,
     parse_override,
     read_toml,
+    scene_from_dict,
 )
 from ..core.rig import RigConstants, derive
 from ..drivers.study import LocalPool, expand, load_study
@@ -528,6 +530,7 @@ class PaperResult:
     timings: dict[str, float] = field(default_factory=dict)
     ours: dict[str, Ours] = field(default_factory=dict)
     wall_time: float = 0.0
+    grid_notes: list[str] = field(default_factory=list)
 
 
 def run_paper(
@@ -540,7 +543,9 @@ def run_paper(
     ``OUT/validation.md``."""
     start = time.perf_counter()
     config_dir, out_dir = Path(config_dir), Path(out_dir)
-    argv = ["hertzsweep", "paper", str(config_dir), str(out_dir)] + (["--quick"] if quick else [])
+    argv = ["hertzsweep", "paper", str(config_dir.resolve()), str(out_dir.resolve())]
+    argv += ["--quick"] if quick else []
+    command = shlex.join(argv)
     runs = read_manifest(config_dir, quick)
     out_dir.mkdir(parents=True, exist_ok=True)
     result = PaperResult()
@@ -558,10 +563,17 @@ def run_paper(
         echo(f"{run.name}: {run.kind} in {seconds:.1f} s -> {', '.join(p.name for p in paths)}")
     for run in runs:
         overlay = result.datasets.get(run.overlay) if run.overlay else None
+        drawn = dataset_paths(out_dir, run.name, len(grouped[run.name]))
+        if run.overlay:
+            drawn += dataset_paths(out_dir, run.overlay, len(grouped[run.overlay]))
         for figure_name, options in run.figures.items():
             fig = draw(run, options, grouped[run.name], overlay)
-            result.files.append(plot.write_figure(fig, out_dir / f"{figure_name}.png"))
+            made_by = str(grouped[run.name][0].attrs.get("history", ""))
+            path = out_dir / f"{figure_name}.png"
+            written = plot.write_figure(fig, path, datasets=drawn, command=command, made_by=made_by)
+            result.files.append(written)
             echo(f"{figure_name}.png from {run.name}")
+    result.grid_notes = grid_notes(runs, result.datasets)
     constants = derive(load_rig(next(r.source for r in runs if KINDS[r.kind].source == SCENE)))
     result.ours = measurements(result.datasets, constants)
     result.wall_time = time.perf_counter() - start
@@ -594,6 +606,35 @@ def validation_report(result: PaperResult, quick: bool) -> str:
     lines += [
         "- Figure 11 is the rig's measured jump frequencies; its computed counterpart "
         "is Figure 15.",
-        "",
     ]
+    lines += [f"- {note}" for note in result.grid_notes]
+    lines.append("")
     return "\n".join(lines)
+
+
+def grid_notes(runs: list[Run], datasets: Mapping[str, xr.Dataset]) -> list[str]:
+    """One line per study run whose frequency step differs from its study file's (the
+    step of ``make fig15`` and of the README's table): which step each used and what
+    follows for the jump frequencies, which are known to one step."""
+    notes = []
+    for run in runs:
+        ds = datasets.get(run.name)
+        if KINDS[run.kind].source != STUDY or ds is None or "sweep_step" not in ds.attrs:
+            continue
+        study = load_study(run.source, STUDY_KINDS)
+        own = scene_from_dict(copy.deepcopy(study.base), source=study.source).sweep.step
+        used = float(ds.attrs["sweep_step"])
+        if math.isclose(used, own, rel_tol=1e-9):
+            continue
+        figures = ", ".join(f"`{name}.png`" for name in run.figures) or f"`{run.name}.nc`"
+        notes.append(
+            f"{figures} (run `{run.name}`) sweeps with a frequency step of {used:g}, not the "
+            f"{own:g} of its study file `{run.source.name}` (that of `make fig15` and of the "
+            "README's Figure 15 table), to keep this run short. Its jump frequencies differ "
+            "from that table's, by more than one step in places: a jump is known to one step "
+            "only; over a coarser step a steep resonance that does not jump can change by "
+            "more than `sweep.jump_threshold` and count as a jump; and a stepped sine is a "
+            "sequence of dwells, so larger steps leave an impacting branch earlier, at a "
+            "higher frequency. The README gives the differences measured."
+        )
+    return notes

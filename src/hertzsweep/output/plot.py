@@ -6,23 +6,34 @@ dataset is that of its ``hertzsweep_kind`` (:func:`hertzsweep.output.kinds.figur
 
 - ``sweep``: amplitude and phase of each harmonic against the frequency ratio, up sweeps
   filled markers, down sweeps open ones, one colour per sigma (Figures 3, 4, 5, 9, 10);
-  view ``forces``: extremes of N/F_s and the contact-loss share (Figure 6).
+  view ``forces``: extremes of N/F_s and the contact-loss share (Figure 6). Dwells that
+  did not settle (``settled = 0``) are crosses, settled ones that do not repeat every
+  period (``periodic = 0``) triangles, each named in the legend.
 - ``branch``: the periodic-orbit branches, stable solid, unstable dotted, folds and other
-  bifurcations marked, optionally over a sweep (Figures 13, 14).
+  bifurcations marked, optionally over a simulated sweep (Figures 13, 14; the paper's
+  markers there are its measurements, ours a simulation, and the legend says so).
 - ``trace``: N/F_s against time in ms with the flights shaded, and the amplitude
   spectrum against the harmonic order (Figures 7, 8, 12, 16, 17).
 - ``study``: the jump frequency against sigma, one curve per damping law (Figure 15).
 - ``accuracy``: error against cost, log-log, the Pareto front highlighted.
 
-Figures have a fixed size in inches and :data:`DPI`, so a PNG's pixel size is known in
-advance. A second axis in Hz uses the dataset's ``natural_frequency``.
+Conventions: every axis label ends with its unit in brackets, that of the dataset's
+``units`` (``[1]`` for a quantity in units of the static load F_s or a ratio,
+``[degree]``, ``[Hz]``; ``[ms]`` and ``[%]`` for scaled ones). Phases are unwrapped along
+each curve (continuous across 360 -> 0, anchored in [-180, 180) at the lowest frequency or
+the branch's first point); :func:`phase_convention` ``("wrapped")`` draws them as stored,
+in [0, 360). Figures have a fixed size in inches; files are written at :data:`DPI` (or
+the ``dpi`` asked for), with metadata naming the dataset, the command and the version
+(:func:`write_figure`). A second axis in Hz uses the dataset's ``natural_frequency``.
 """
 
 from __future__ import annotations
 
+import contextvars
 import itertools
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -30,12 +41,13 @@ import xarray as xr
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+from matplotlib.ticker import FuncFormatter, LogLocator, MultipleLocator, NullFormatter
 
+from .. import __version__
 from ..errors import HertzsweepError
 from .dataset import atomic_path
 
-DPI = 100  # dots per inch of the raster formats: a figure of W x H inches is 100 W x 100 H px
+DPI = 200  # dots per inch of the raster formats: print quality (journals ask 150-300)
 FORMATS = ("png", "pdf", "svg")  # figure files, by extension
 COLOURS = (  # matplotlib's tab10, one per sigma (or per curve)
     "#1f77b4",
@@ -50,12 +62,16 @@ COLOURS = (  # matplotlib's tab10, one per sigma (or per curve)
     "#17becf",
 )
 MARKER_SIZE = 4.0  # [pt] sweep markers: dense grids (100+ points) stay readable
+FLAG_MARKER_SIZE = 6.0  # [pt] unsettled / non-periodic dwells: a little larger, to stand out
 SPECTRUM_ORDERS = 8.5  # highest harmonic order shown in a spectrum: the paper's Figure 8
 # shows the first few; beyond 8 the lines of these responses are below 1e-3 of H1
 
 W_LABEL = r"frequency ratio $\varpi = f/f_0$ [1]"
 HZ_LABEL = "frequency $f$ [Hz]"
 FORCE_LABEL = r"normal force $N/F_s$ [1]"
+WRAPPED, UNWRAPPED = "wrapped", "unwrapped"  # phase conventions (:func:`phase_convention`)
+NOT_SETTLED = ("x", "not settled (still a transient)")  # marker and legend of settled = 0
+NOT_PERIODIC = ("^", "not periodic (period doubling, subharmonic or chaos)")  # periodic = 0
 FOLD_MARKERS = {  # bifurcation kind -> (marker, label)
     "fold": ("D", "fold (saddle-node)"),
     "period-doubling": ("s", "period doubling"),
@@ -82,13 +98,124 @@ def figure_format(path: str | os.PathLike) -> str:
     return suffix
 
 
-def write_figure(fig: Figure, path: str | os.PathLike) -> Path:
-    """Save a figure in the format of its extension, atomically: complete or absent."""
+def write_figure(
+    fig: Figure,
+    path: str | os.PathLike,
+    dpi: float = DPI,
+    datasets: Sequence[str | os.PathLike] = (),
+    command: str = "",
+    made_by: str = "",
+) -> Path:
+    """Save a figure in the format of its extension, atomically: complete or absent.
+
+    Parameters
+    ----------
+    fig : Figure
+    path : path
+        ``FIG.png``, ``FIG.pdf`` or ``FIG.svg``.
+    dpi : float
+        Dots per inch of a PNG (and of the images inside a PDF or SVG).
+    datasets : sequence of path
+        The dataset(s) drawn, named in the file's metadata (absolute paths).
+    command : str
+        The command that drew it, for the metadata.
+    made_by : str
+        How the dataset was made (its ``history``), for the metadata.
+    """
     path = Path(path)
     fmt = figure_format(path)
+    metadata = figure_metadata(fmt, fig, datasets, command, made_by)
     with atomic_path(path, suffix=f".{fmt}") as tmp:
-        fig.savefig(tmp, format=fmt)
+        fig.savefig(tmp, format=fmt, dpi=dpi, metadata=metadata)
     return path
+
+
+def figure_metadata(
+    fmt: str,
+    fig: Figure,
+    datasets: Sequence[str | os.PathLike] = (),
+    command: str = "",
+    made_by: str = "",
+) -> dict[str, str]:
+    """The metadata of a figure file in the keys its format has: the title, the
+    dataset(s) drawn, the command that drew them and how they were made, and the version
+    of hertzsweep (PNG text chunks; the PDF info dictionary; SVG Dublin Core)."""
+    title = fig.get_suptitle() or "hertzsweep figure"
+    software = f"hertzsweep {__version__}"
+    source = "; ".join(os.path.abspath(d) for d in datasets)
+    description = "; ".join(
+        text
+        for text in (
+            f"drawn by: {command}" if command else "",
+            f"dataset made by: {made_by}" if made_by else "",
+        )
+        if text
+    )
+    if fmt == "png":
+        out = {"Title": title, "Software": software, "Source": source}
+        out["Description"] = description
+    elif fmt == "pdf":
+        out = {"Title": title, "Creator": software, "Subject": source, "Keywords": description}
+    else:  # svg: Dublin Core
+        out = {"Title": title, "Creator": software, "Source": source}
+        out["Description"] = description
+    return {key: value for key, value in out.items() if value}
+
+
+# --------------------------------------------------------------------------- phases
+_PHASE = contextvars.ContextVar("hertzsweep_phase_convention", default=UNWRAPPED)
+
+
+@contextmanager
+def phase_convention(convention: str) -> Iterator[None]:
+    """Draw phases :data:`UNWRAPPED` (the default: continuous along each curve) or
+    :data:`WRAPPED` (as stored, in [0, 360)) inside the block."""
+    if convention not in (WRAPPED, UNWRAPPED):
+        raise HertzsweepError(f"phase convention: expected {WRAPPED} or {UNWRAPPED}")
+    token = _PHASE.set(convention)
+    try:
+        yield
+    finally:
+        _PHASE.reset(token)
+
+
+WRAP_STEP = 270.0  # [degree] a step between neighbours beyond this is a wrap of 360; a
+# smaller one is kept: a jump of the response moves H2's phase by up to about 180 degrees
+
+
+def unwrap_degrees(y: np.ndarray, low: float = -180.0) -> np.ndarray:
+    """A phase curve [degree] made continuous where it wraps: a step of more than
+    :data:`WRAP_STEP` between finite neighbours is taken as a wrap of 360 (a jump of the
+    response, smaller, is kept as it is); the curve is then moved by a multiple of 360 so
+    that its first finite value lies in ``[low, low + 360)``. NaN stays NaN (and does not
+    break the continuity)."""
+    y = np.array(y, dtype=float)
+    finite = np.flatnonzero(np.isfinite(y))
+    if finite.size:
+        values = np.unwrap(y[finite], discont=WRAP_STEP, period=360.0)
+        values -= 360.0 * np.floor((values[0] - low) / 360.0)
+        y[finite] = values
+    return y
+
+
+def phase_window(values: np.ndarray) -> float:
+    """The lower end, in [-180, 180), of the 360-degree window the curves of one panel
+    start in: the middle of the widest gap between the panel's phases (taken modulo
+    360), so that curves of different levels and directions are drawn alike and none is
+    cut where the data leave room (H1's lag, 0 to 180: the window [-90, 270))."""
+    phases = np.sort(np.mod(np.asarray(values, dtype=float)[np.isfinite(values)], 360.0))
+    if phases.size == 0:
+        return -180.0
+    gaps = np.diff(np.r_[phases, phases[0] + 360.0])
+    widest = int(np.argmax(gaps))
+    middle = phases[widest] + 0.5 * gaps[widest]
+    return float(np.mod(middle + 180.0, 360.0) - 180.0)
+
+
+def drawn_phase(y: np.ndarray, low: float = -180.0) -> np.ndarray:
+    """A phase curve as the current :func:`phase_convention` draws it (``low``: the
+    panel's :func:`phase_window`)."""
+    return np.asarray(y, dtype=float) if _PHASE.get() == WRAPPED else unwrap_degrees(y, low)
 
 
 # --------------------------------------------------------------------------- selection
@@ -163,16 +290,21 @@ def _colour(i: int) -> str:
 
 
 def _amplitude_label(k: int) -> str:
-    return f"$H_{{{k}}}$ amplitude [$F_s$]"
+    return f"$H_{{{k}}}$ amplitude of $N/F_s$ [1]"
 
 
 def _phase_label(k: int) -> str:
-    return f"$H_{{{k}}}$ phase lag [deg]"
+    unwrapped = ", unwrapped" if _PHASE.get() == UNWRAPPED else ""
+    return f"$H_{{{k}}}$ phase lag{unwrapped} [degree]"
 
 
 def _phase_axis(ax) -> None:
-    ax.set_ylim(-5.0, 365.0)
-    ax.set_yticks([0, 90, 180, 270, 360])
+    """Ticks every 90 degrees; the wrapped convention's fixed range [0, 360]."""
+    if _PHASE.get() == WRAPPED:
+        ax.set_ylim(-5.0, 365.0)
+        ax.set_yticks([0, 90, 180, 270, 360])
+    else:
+        ax.yaxis.set_major_locator(MultipleLocator(90.0))
 
 
 def _title(ds: xr.Dataset, text: str) -> str:
@@ -191,25 +323,42 @@ def _title(ds: xr.Dataset, text: str) -> str:
     return f"{text}  ({', '.join(parts)})" if parts else text
 
 
-def _sweep_legend(ax, sigmas: np.ndarray, directions: Sequence[str]) -> None:
+def _direction_handles(directions: Sequence[str], simulated: bool = False) -> list[Line2D]:
+    """Legend entries of the sweep directions: up filled, down open (``simulated``: said
+    so, where the figure also shows other curves)."""
+    prefix = "simulated " if simulated else ""
+    return [
+        Line2D(
+            [],
+            [],
+            ls="none",
+            marker="o",
+            ms=6,
+            color="0.2",
+            mfc="0.2" if direction == "up" else "none",
+            label=f"{prefix}{direction} sweep",
+        )
+        for direction in directions
+    ]
+
+
+def _flag_handles(flags: set[str]) -> list[Line2D]:
+    """Legend entries of the dwells drawn apart (:func:`_sweep_markers`), those drawn."""
+    return [
+        Line2D([], [], ls="none", marker=marker, ms=7, color="0.2", mfc="none", label=label)
+        for marker, label in (NOT_SETTLED, NOT_PERIODIC)
+        if label in flags
+    ]
+
+
+def _sweep_legend(
+    ax, sigmas: np.ndarray, directions: Sequence[str], flags: set[str] = frozenset()
+) -> None:
     handles = [
         Line2D([], [], ls="none", marker="o", ms=6, color=_colour(i), label=_sigma_label(s))
         for i, s in enumerate(sigmas)
     ]
-    for direction in directions:
-        face = "0.2" if direction == "up" else "none"
-        handles.append(
-            Line2D(
-                [],
-                [],
-                ls="none",
-                marker="o",
-                ms=6,
-                color="0.2",
-                mfc=face,
-                label=f"{direction} sweep",
-            )
-        )
+    handles += _direction_handles(directions) + _flag_handles(flags)
     ax.legend(handles=handles, fontsize="small", loc="best")
 
 
@@ -229,34 +378,61 @@ def _label_harmonic_axes(axes, orders, with_phase: bool, f0: float) -> None:
         _hz_axis(ax, f0)
 
 
-def _sweep_markers(ax, ds: xr.Dataset, values: xr.DataArray, marker: str = "o") -> None:
-    """``values`` (direction, sigma, frequency_ratio) as markers: up filled, down open."""
+def dwell_flags(ds: xr.Dataset, direction: str, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(not_settled, not_periodic)`` masks of one sweep's dwells (all False where the
+    dataset has no such flag); a settled dwell that is not periodic is only the second."""
+    one = ds.sel(direction=direction).isel(sigma=i)
+    size = ds.sizes["frequency_ratio"]
+    unsettled = one.settled.values == 0 if "settled" in one else np.zeros(size, bool)
+    aperiodic = one.periodic.values == 0 if "periodic" in one else np.zeros(size, bool)
+    return unsettled, aperiodic & ~unsettled
+
+
+def _sweep_markers(
+    ax,
+    ds: xr.Dataset,
+    values: xr.DataArray,
+    phase: bool = False,
+    colour_of=None,
+    alpha: float = 1.0,
+    window: float | None = None,
+) -> set[str]:
+    """``values`` (direction, sigma, frequency_ratio) as markers: one colour per sigma,
+    up filled and down open; dwells that did not settle as crosses, settled ones that do
+    not repeat every period as triangles (:data:`NOT_SETTLED`, :data:`NOT_PERIODIC`).
+    ``phase``: drawn in the current :func:`phase_convention`, starting in the
+    :func:`phase_window` of ``values`` (or ``window``). Returns the legend labels of the
+    flags drawn."""
     w = ds.frequency_ratio.values
+    flags: set[str] = set()
+    low = window if window is not None else phase_window(values.values) if phase else 0.0
     for i in range(ds.sizes["sigma"]):
+        colour = (colour_of or _colour)(i)
         for direction in ds.direction.values:
             y = values.sel(direction=direction).isel(sigma=i).values
-            colour = _colour(i)
-            ax.plot(
-                w,
-                y,
-                ls="none",
-                marker=marker,
-                ms=MARKER_SIZE,
-                color=colour,
-                mew=0.8,
-                mfc=colour if direction == "up" else "none",
-            )
+            y = drawn_phase(y, low) if phase else np.asarray(y, dtype=float)
+            unsettled, aperiodic = dwell_flags(ds, direction, i)
+            face = colour if direction == "up" else "none"
+            style = dict(ls="none", color=colour, mew=0.8, alpha=alpha)
+            converged = np.where(unsettled | aperiodic, np.nan, y)
+            ax.plot(w, converged, marker="o", ms=MARKER_SIZE, mfc=face, **style)
+            for mask, (marker, label) in ((unsettled, NOT_SETTLED), (aperiodic, NOT_PERIODIC)):
+                if np.any(mask & np.isfinite(y)):
+                    ax.plot(w[mask], y[mask], marker=marker, ms=FLAG_MARKER_SIZE, mfc=face, **style)
+                    flags.add(label)
+    return flags
 
 
 # --------------------------------------------------------------------------- sweep
 def sweep_figure(
     ds: xr.Dataset, view: str = "harmonics", harmonics: Sequence[int] | None = None
 ) -> Figure:
-    """Stepped-sine sweeps as the rig shows them (Figures 3-6, 9, 10).
+    """Simulated stepped-sine sweeps as the rig shows them (Figures 3-6, 9, 10).
 
     ``harmonics``: one row per harmonic, amplitude and phase side by side; ``amplitude``:
     amplitudes only; ``forces``: N_max and N_min, and the contact-loss share (Figure 6).
-    Up sweeps are filled markers, down sweeps open ones, one colour per sigma.
+    Up sweeps are filled markers, down sweeps open ones, one colour per sigma; dwells that
+    did not settle or do not repeat every period are drawn apart (:func:`_sweep_markers`).
     """
     if view == "forces":
         return _sweep_forces(ds)
@@ -266,33 +442,36 @@ def sweep_figure(
     fig = _new_figure(*panel_size(with_phase, len(orders)))
     axes = fig.subplots(len(orders), 2 if with_phase else 1, squeeze=False, sharex=True)
     f0 = _f0(ds)
+    flags: set[str] = set()
     for row, k in enumerate(orders):
-        _sweep_markers(axes[row, 0], ds, ds.amplitude.sel(harmonic=k))
+        flags |= _sweep_markers(axes[row, 0], ds, ds.amplitude.sel(harmonic=k))
         if with_phase:
-            _sweep_markers(axes[row, 1], ds, ds.phase.sel(harmonic=k))
+            flags |= _sweep_markers(axes[row, 1], ds, ds.phase.sel(harmonic=k), phase=True)
     _label_harmonic_axes(axes, orders, with_phase, f0)
-    _sweep_legend(axes[0, 0], ds.sigma.values, list(ds.direction.values))
-    fig.suptitle(_title(ds, "Stepped-sine sweep, harmonics of $N/F_s$"), fontsize="medium")
+    _sweep_legend(axes[0, 0], ds.sigma.values, list(ds.direction.values), flags)
+    text = "Simulated stepped-sine sweep, harmonics of $N/F_s$"
+    fig.suptitle(_title(ds, text), fontsize="medium")
     return fig
 
 
 def _sweep_forces(ds: xr.Dataset) -> Figure:
     fig = _new_figure(8.0, 7.0)
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2.0, 1.0])
-    _sweep_markers(top, ds, ds.force_max, marker="o")
-    _sweep_markers(top, ds, ds.force_min, marker="o")
+    flags = _sweep_markers(top, ds, ds.force_max)
+    flags |= _sweep_markers(top, ds, ds.force_min)
     top.axhline(1.0, color="0.4", lw=0.8, ls="--")
     top.axhline(0.0, color="0.4", lw=0.8)
-    top.set_ylabel(r"$N_{max}$ (above 1), $N_{min}$ (below 1) [$F_s$]")
-    _sweep_markers(bottom, ds, 100.0 * ds.contact_loss_fraction)
-    bottom.set_ylabel("out of contact [% of the period]")
+    top.set_ylabel(r"$N_{max}/F_s$ (above 1), $N_{min}/F_s$ (below 1) [1]")
+    flags |= _sweep_markers(bottom, ds, 100.0 * ds.contact_loss_fraction)
+    bottom.set_ylabel("time out of contact, share of the period [%]")
     bottom.set_ylim(-3.0, 100.0)
     bottom.set_xlabel(W_LABEL)
     for ax in (top, bottom):
         ax.grid(True, lw=0.3)
     _hz_axis(top, _f0(ds))
-    _sweep_legend(top, ds.sigma.values, list(ds.direction.values))
-    fig.suptitle(_title(ds, "Extremes of the normal force"), fontsize="medium")
+    _sweep_legend(top, ds.sigma.values, list(ds.direction.values), flags)
+    text = "Simulated stepped-sine sweep, extremes of the normal force"
+    fig.suptitle(_title(ds, text), fontsize="medium")
     return fig
 
 
@@ -328,34 +507,41 @@ def branch_figure(
     overlay: xr.Dataset | None = None,
 ) -> Figure:
     """Periodic-orbit branches (Figures 13, 14): stable solid, unstable dotted, the folds
-    (and period doublings, Neimark-Sacker points) marked; an optional sweep ``overlay``
-    as markers, up filled and down open."""
+    (and period doublings, Neimark-Sacker points) marked; an optional simulated sweep
+    ``overlay`` as markers, up filled and down open, labelled as simulated (the paper's
+    markers in these figures are measurements). Phases are unwrapped along each branch
+    in arclength order, branches and sweep alike starting in the panel's
+    :func:`phase_window` (:func:`phase_convention`)."""
     ds = select_harmonics(ds, harmonics)
     orders = [int(k) for k in ds.harmonic.values]
     with_phase = view == "harmonics"
     fig = _new_figure(*panel_size(with_phase, len(orders)))
     axes = fig.subplots(len(orders), 2 if with_phase else 1, squeeze=False, sharex=True)
     sigmas = ds.sigma.values
+    windows = {k: phase_window(_panel_phases(ds, overlay, k)) for k in orders}
     kinds_seen: set[str] = set()
     for i in range(sigmas.size):
         one = ds.isel(sigma=i)
         w = one.frequency_ratio.values
         runs = stability_segments(one.stable.values)
+        wrapped = _PHASE.get() == WRAPPED
         for row, k in enumerate(orders):
-            panels = [(axes[row, 0], one.amplitude.sel(harmonic=k).values)]
+            panels = [(axes[row, 0], one.amplitude.sel(harmonic=k).values, False)]
             if with_phase:
-                panels.append((axes[row, 1], one.phase.sel(harmonic=k).values))
-            for ax, y in panels:
+                phase = drawn_phase(one.phase.sel(harmonic=k).values, windows[k])
+                panels.append((axes[row, 1], phase, wrapped))
+            for ax, y, breaks in panels:
                 for start, stop, stable in runs:
                     ax.plot(
-                        *break_wraps(w[start:stop], y[start:stop], ax is not axes[row, 0]),
+                        *break_wraps(w[start:stop], y[start:stop], breaks),
                         color=_colour(i),
                         ls="-" if stable else ":",
                         lw=2.0 if stable else 1.4,
                     )
                 kinds_seen |= _mark_bifurcations(ax, one, y, _colour(i))
+    flags: set[str] = set()
     if overlay is not None:
-        _overlay_sweep(axes, overlay, sigmas, orders, with_phase)
+        flags = _overlay_sweep(axes, overlay, sigmas, orders, windows if with_phase else None)
     _label_harmonic_axes(axes, orders, with_phase, _f0(ds))
     handles = [
         Line2D([], [], color=_colour(i), lw=2, label=_sigma_label(s)) for i, s in enumerate(sigmas)
@@ -378,10 +564,8 @@ def branch_figure(
         if kind in kinds_seen
     ]
     if overlay is not None:
-        handles += [
-            Line2D([], [], ls="none", marker="o", color="0.2", mfc=face, label=label)
-            for face, label in (("0.2", "up sweep"), ("none", "down sweep"))
-        ]
+        directions = [str(d) for d in overlay.direction.values]
+        handles += _direction_handles(directions, simulated=True) + _flag_handles(flags)
     axes[0, 0].legend(handles=handles, fontsize="small", loc="best")
     fig.suptitle(_title(ds, "Periodic orbits (shooting, continuation)"), fontsize="medium")
     return fig
@@ -424,37 +608,47 @@ def _mark_bifurcations(ax, one: xr.Dataset, y: np.ndarray, colour: str) -> set[s
     return seen
 
 
-def _overlay_sweep(axes, sweep: xr.Dataset, sigmas, orders, with_phase) -> None:
-    """A sweep's markers over a branch, in the colour of the branch of the same sigma."""
+def _panel_phases(ds: xr.Dataset, overlay: xr.Dataset | None, k: int) -> np.ndarray:
+    """Every phase of harmonic k a branch panel draws: the branch's and the overlay's."""
+    values = [np.ravel(ds.phase.sel(harmonic=k).values)]
+    if overlay is not None and "phase" in overlay and k in overlay.harmonic.values:
+        values.append(np.ravel(overlay.phase.sel(harmonic=k).values))
+    return np.concatenate(values)
+
+
+def _overlay_sweep(
+    axes, sweep: xr.Dataset, sigmas, orders, windows: dict[int, float] | None
+) -> set[str]:
+    """A simulated sweep's markers over a branch, in the colour of the branch of the same
+    sigma (:func:`_sweep_markers`), phases (``windows``: per harmonic, None without a
+    phase column) in the branch's window; returns the flags drawn."""
     if sweep.attrs.get("hertzsweep_kind") != "sweep":
         raise HertzsweepError("--overlay: expected a sweep dataset")
-    w = sweep.frequency_ratio.values
-    for s in sweep.sigma.values:
-        match = np.flatnonzero(np.isclose(sigmas, s, rtol=1e-9, atol=0.0))
-        if match.size == 0:
+    held = [j for j, s in enumerate(sweep.sigma.values) if np.isclose(sigmas, s, rtol=1e-9).any()]
+    sweep = sweep.isel(sigma=held)
+    colours = [
+        _colour(int(np.flatnonzero(np.isclose(sigmas, s, rtol=1e-9))[0]))
+        for s in sweep.sigma.values
+    ]
+    flags: set[str] = set()
+    for row, k in enumerate(orders):
+        if k not in sweep.harmonic.values:
             continue
-        colour = _colour(int(match[0]))
-        for row, k in enumerate(orders):
-            if k not in sweep.harmonic.values:
-                continue
-            one = sweep.sel(sigma=s, harmonic=k)
-            for direction in one.direction.values:
-                face = colour if direction == "up" else "none"
-                panels = [(axes[row, 0], one.amplitude)]
-                if with_phase:
-                    panels.append((axes[row, 1], one.phase))
-                for ax, values in panels:
-                    ax.plot(
-                        w,
-                        values.sel(direction=direction).values,
-                        ls="none",
-                        marker="o",
-                        ms=MARKER_SIZE,
-                        color=colour,
-                        mfc=face,
-                        mew=0.8,
-                        alpha=0.8,
-                    )
+        one = sweep.sel(harmonic=k)
+        flags |= _sweep_markers(
+            axes[row, 0], one, one.amplitude, colour_of=colours.__getitem__, alpha=0.8
+        )
+        if windows is not None:
+            flags |= _sweep_markers(
+                axes[row, 1],
+                one,
+                one.phase,
+                phase=True,
+                colour_of=colours.__getitem__,
+                alpha=0.8,
+                window=windows[k],
+            )
+    return flags
 
 
 # --------------------------------------------------------------------------- trace
@@ -515,6 +709,10 @@ def _trace_title(ds: xr.Dataset, one: xr.Dataset) -> str:
         text += f": out of contact {100.0 * float(one.contact_loss_fraction):.0f} %"
     if "flight_time" in one and float(one.flight_time) > 0:
         text += f", longest flight {1e3 * float(one.flight_time):.2f} ms"
+    if "settled" in one and int(one.settled) == 0:
+        text += f" [{NOT_SETTLED[1]}]"
+    elif "periodic" in one and int(one.periodic) == 0:
+        text += f" [{NOT_PERIODIC[1]}]"
     return text
 
 
@@ -554,7 +752,7 @@ def _spectrum_panel(ax, one: xr.Dataset) -> None:
     ax.set_ylim(bottom=0.0)
     ax.set_xticks(np.arange(0, int(SPECTRUM_ORDERS) + 1))
     ax.set_xlabel(r"harmonic order $k$ (multiples of $\varpi$) [1]")
-    ax.set_ylabel(r"amplitude of $N/F_s$ [$F_s$]")
+    ax.set_ylabel(r"amplitude of $N/F_s$ [1]")
     ax.grid(True, lw=0.3)
 
 
@@ -592,8 +790,11 @@ def study_figure(ds: xr.Dataset) -> Figure:
     x = jump[x_dim].values.astype(float)
     scale = 100.0 if x_dim == "sigma" else 1.0
     markers = itertools.cycle("osD^vP*X")
+    doubtful = unconverged_jumps(ds, jump)
+    flagged = False
     for i, index in enumerate(itertools.product(*(range(jump.sizes[d]) for d in others))):
-        curve = jump.isel(dict(zip(others, index, strict=True)))
+        where = dict(zip(others, index, strict=True))
+        curve = jump.isel(where)
         label = ", ".join(
             f"{AXIS_SYMBOLS.get(d, d)} = {_format_value(curve[d].values)}" for d in others
         )
@@ -606,31 +807,86 @@ def study_figure(ds: xr.Dataset) -> Figure:
             color=_colour(i),
             label=label or None,
         )
+        mask = doubtful.isel(where).transpose(x_dim).values
+        if np.any(mask):
+            style = dict(ls="none", marker="x", ms=9, mew=1.4, color="k", zorder=5)
+            ax.plot(scale * x[mask], curve.values[mask], **style)
+            flagged = True
+    if flagged:
+        ax.plot([], [], ls="none", marker="x", ms=9, mew=1.4, color="k", label=JUMP_FLAG)
     drawn = x[np.any(np.isfinite(jump.transpose(x_dim, ...).values.reshape(x.size, -1)), axis=1)]
     if drawn.size > 1 and drawn.min() > 0 and drawn.max() / drawn.min() > 10:
         ax.set_xscale("log")  # levels spread over decades (0.2 % to 8 %)
         ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0, 7.0)))
         ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.set_xlabel(r"input level $\sigma$ [% of $F_s$]" if x_dim == "sigma" else x_dim)
+    ax.set_xlabel(
+        r"input level $\sigma = F/F_s$ [%]" if x_dim == "sigma" else _grid_label(ds, x_dim)
+    )
     ax.set_ylabel(rf"{direction}ward jump frequency ratio $\varpi$ [1]")
     ax.grid(True, which="both", lw=0.3)
     _hz_axis(ax, _f0(ds), where="right")
-    if others:
+    if others or flagged:
         ax.legend(fontsize="small", loc="best")
     failed = ds.case_failed.broadcast_like(jump) == 1 if "case_failed" in ds else False
     if np.any(np.isnan(jump.values) & ~np.asarray(failed)):
-        ax.text(
-            0.01,
-            0.01,
+        ax.text(  # top right: the curves fall from the upper left, the legend goes below
+            0.99,
+            0.99,
             "a missing point: no jump within the swept range",
             transform=ax.transAxes,
             fontsize="x-small",
             color="0.3",
+            ha="right",
+            va="top",
         )
     text = f"{direction.capitalize()}ward jump frequency against input level"
+    step = ds.attrs.get("sweep_step")
+    if isinstance(step, int | float | np.number):  # a jump is known to one grid step
+        text += rf", frequency step $\Delta\varpi$ = {float(step):g}"
     fig.suptitle(_title(ds, text), fontsize="medium")
     return fig
+
+
+JUMP_FLAG = "read between dwells not settled or not periodic"  # legend of a doubtful jump
+
+
+def unconverged_jumps(ds: xr.Dataset, jump: xr.DataArray) -> xr.DataArray:
+    """Where a jump (:func:`study_jumps`) was read between two dwells of which one did
+    not settle or does not repeat every period: the dwell at the jump frequency and the
+    next one in sweep order. All False when the dataset has no such flags."""
+    flagged = xr.zeros_like(jump, dtype=bool)
+    if "settled" not in ds and "periodic" not in ds:
+        return flagged
+    bad = xr.zeros_like(ds.jump_frequency_ratio, dtype=bool)
+    bad = bad.expand_dims(frequency_ratio=ds.frequency_ratio.values).copy()
+    for name in ("settled", "periodic"):
+        if name in ds:
+            bad = bad | (ds[name] == 0)
+    if "direction" in jump.coords and "direction" in bad.dims:
+        bad = bad.sel(direction=jump.direction.values)
+    direction = str(jump.direction.values) if "direction" in jump.coords else "down"
+    step = -1 if direction == "down" else 1
+    w = ds.frequency_ratio.values
+    bad = bad.transpose(*jump.dims, "frequency_ratio").values
+    values = jump.values
+    out = np.zeros(values.shape, dtype=bool)
+    for index in np.ndindex(values.shape):
+        match = np.flatnonzero(np.isclose(w, values[index], rtol=0.0, atol=1e-9))
+        if match.size:
+            j = int(match[0])
+            pair = [j, j + step] if 0 <= j + step < w.size else [j]
+            out[index] = bool(np.any(bad[index][pair]))
+    flagged.values = out
+    return flagged
+
+
+def _grid_label(ds: xr.Dataset, dim: str) -> str:
+    """An axis label of a grid coordinate: its long name and units."""
+    attributes = ds[dim].attrs
+    name = attributes.get("long_name", dim)
+    units = attributes.get("units")
+    return f"{name} [{units}]" if units else name
 
 
 def _format_value(value) -> str:
@@ -682,7 +938,7 @@ def accuracy_figure(ds: xr.Dataset) -> Figure:
     _accuracy_marks(ax, ds, cost, h1, labels)
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("cost [integration steps]")
+    ax.set_xlabel("cost: integration steps [1]")
     ax.set_ylabel("error against the reference [1]")
     ax.grid(True, which="both", lw=0.3)
     ax.legend(fontsize="small", loc="best")

@@ -10,6 +10,7 @@ dataset of the parts (:func:`study_dataset`), with the grid keys as dimensions.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 from collections.abc import Callable, Mapping, Sequence
@@ -20,7 +21,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..core.config import Scene
+from ..core.config import Scene, scene_from_dict
 from ..core.rig import derive
 from ..drivers.study import (
     Case,
@@ -35,11 +36,13 @@ from ..drivers.study import (
 )
 from .dataset import (
     ATTRIBUTES,
+    INDEX,
     atomic_path,
     attrs,
     global_attributes,
     merge_attributes,
     open_dataset,
+    to_json,
     write_atomic,
 )
 
@@ -269,12 +272,16 @@ def study_dataset(
     ds = _concatenate(study, parts)
     for axis in study.grid:
         if axis.dim != "sigma":
-            ds[axis.dim].attrs = _grid_attrs(axis.key, axis.dim)
+            if ds[axis.dim].dtype.kind in "iu":  # the integer type of every index and count
+                ds = ds.assign_coords({axis.dim: ds[axis.dim].astype(INDEX)})
+            labels = ds[axis.dim].dtype.kind in "OUS"
+            ds[axis.dim].attrs = _grid_attrs(axis.key, axis.dim, labels)
     _mark_cases(ds, study, cases, parts)
     steps = [int(p.attrs.get("integration_steps", 0)) for p in parts.values() if p is not None]
     scene = next(case.scene for case in cases if parts[case.index] is not None)
     title = f"Parameter study ({study.kind}) of a preloaded Hertzian contact"
-    out = global_attributes(scene, title, "study", history)
+    out = global_attributes(scene, title, "study", history, {"command": "study"})
+    out["config_json"] = to_json(study_config(study))
     for name in varying_attributes(cases):
         out.pop(name, None)
     out.pop("scene_file", None)
@@ -303,13 +310,29 @@ def _fill_value(dtype: np.dtype) -> Any:
     return ""
 
 
-def _grid_attrs(key: str, dim: str) -> dict[str, Any]:
+def study_config(study: Study) -> dict[str, Any]:
+    """``config_json`` of a study: its file's content (``kind``, ``split_sigma``,
+    ``grid``) with the base scene resolved in place of the file it names (``scene``: the
+    tables of :meth:`~hertzsweep.core.config.Scene.to_dict`, the study's inline tables
+    and any overrides applied)."""
+    base = scene_from_dict(copy.deepcopy(study.base), source=study.source)
+    return {
+        "kind": study.kind,
+        "split_sigma": study.split_sigma,
+        "grid": {axis.key: list(axis.values) for axis in study.grid},
+        "scene": base.to_dict(),
+    }
+
+
+def _grid_attrs(key: str, dim: str, labels: bool = False) -> dict[str, Any]:
     """CF attributes of a grid coordinate: from :data:`ATTRIBUTES` when the dimension is
-    named there, else the config key itself."""
+    named there, else the config key itself; string values are labels, without units."""
     if dim in ATTRIBUTES:
         out = attrs(dim)
     else:
         out = {"long_name": f"study grid value of {key}", "units": GRID_UNITS.get(key, "1")}
+    if labels:
+        out.pop("units", None)
     out["config_key"] = key
     return out
 
@@ -414,6 +437,7 @@ __all__ = [
     "read_part",
     "resumable",
     "run_parts",
+    "study_config",
     "study_dataset",
     "varying_attributes",
 ]
