@@ -160,3 +160,25 @@ def test_state_conversion_round_trip():
     state = State(0.123456789, -0.2, scheme.step_size(0.9, 256))
     end = oscillator.advance(state, 0.9, 0)
     assert end == state
+
+
+def test_kernel_caches_follow_every_compiled_source(tmp_path, monkeypatch):
+    """numba checks only the loaded function's own file; the cache folder is named after
+    all compiled sources, so a change to scheme.py cannot leave integrate.py's cached
+    kernels in use."""
+    import shutil
+
+    from numba import config
+
+    import hertzsweep.kernels as kernels
+
+    assert config.CACHE_DIR == kernels.CACHE_FOLDER  # in use
+    copies = []
+    for source in kernels.COMPILED_SOURCES:
+        copies.append(tmp_path / f"{len(copies)}-{source.name}")
+        shutil.copy(source, copies[-1])
+    monkeypatch.setattr(kernels, "COMPILED_SOURCES", tuple(copies))
+    before = kernels.cache_folder(str(tmp_path))
+    scheme_copy = next(c for c in copies if c.name.endswith("scheme.py"))
+    scheme_copy.write_text(scheme_copy.read_text() + "\n# changed\n")
+    assert kernels.cache_folder(str(tmp_path)) != before
