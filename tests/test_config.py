@@ -65,6 +65,9 @@ BAD = [
     ("[excitation]\nsigma = [0.01, -0.02]\n", "excitation.sigma", "positive"),
     ("[solver]\nsteps_per_period = 3\n", "solver.steps_per_period", "stability limit"),
     ("[lockin]\nharmonics = [0]\n", "lockin.harmonics", "at least 1"),
+    ("[solver]\nmax_steps = 0\n", "solver.max_steps", "at least 1"),
+    ("[lockin]\nharmonics = [1, 128]\n", "lockin.harmonics", "Nyquist"),
+    ("[sweep]\nstep = 1e-7\n", "sweep.step", "more than 100000"),
 ]
 
 

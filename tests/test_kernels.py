@@ -8,6 +8,8 @@ general exponent (pow). Each is a distinct compiled specialisation, so each is c
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -172,7 +174,9 @@ def test_kernel_caches_follow_every_compiled_source(tmp_path, monkeypatch):
 
     import hertzsweep.kernels as kernels
 
-    assert config.CACHE_DIR == kernels.CACHE_FOLDER  # in use
+    assert (
+        config.CACHE_DIR == kernels.CACHE_FOLDER == kernels.cache_folder(kernels.cache_bases()[0])
+    )
     copies = []
     for source in kernels.COMPILED_SOURCES:
         copies.append(tmp_path / f"{len(copies)}-{source.name}")
@@ -182,3 +186,65 @@ def test_kernel_caches_follow_every_compiled_source(tmp_path, monkeypatch):
     scheme_copy = next(c for c in copies if c.name.endswith("scheme.py"))
     scheme_copy.write_text(scheme_copy.read_text() + "\n# changed\n")
     assert kernels.cache_folder(str(tmp_path)) != before
+
+
+UNWRITABLE = "/proc/hertzsweep-nowhere"  # no one, root included, can create it
+
+
+def _import_kernels_with(code: str, **env: str):
+    import os
+    import subprocess
+    import sys
+
+    environment = {**os.environ, **env}
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=environment, timeout=300
+    )
+
+
+COMPILE_ONE = (
+    "from hertzsweep.kernels import integrate; from hertzsweep.kernels.laws import make_law; "
+    "print(integrate.start_from(0.5, 0.0, 0.01, make_law('viscous', 0.01, 1.5)))"
+)
+
+
+def test_unwritable_numba_cache_falls_back_to_a_writable_folder(tmp_path):
+    """NUMBA_CACHE_DIR and the source tree unwritable: the user's cache folder is used,
+    silently, and a kernel compiles and runs (a crash at import before)."""
+    done = _import_kernels_with(
+        COMPILE_ONE, NUMBA_CACHE_DIR=UNWRITABLE, XDG_CACHE_HOME=str(tmp_path)
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ""
+    assert (tmp_path / "hertzsweep").is_dir()
+    # start_from of q = 0.5 at rest: q_prev = 0.5 - h^2/2 * (restoring - 1), finite
+    assert float(done.stdout) < 0.5
+
+
+def test_no_writable_cache_folder_at_all_is_one_warning_line(tmp_path):
+    """A read-only install (emulated: a copy of the package whose ``__pycache__`` folders
+    are files, which no one, root included, can create files in) and nowhere else to
+    write: the kernels compile uncached, with one warning line, instead of every command
+    crashing at import with numba's "no locator available"."""
+    import shutil
+
+    import hertzsweep
+
+    package = tmp_path / "site" / "hertzsweep"
+    shutil.copytree(
+        Path(hertzsweep.__file__).parent, package, ignore=shutil.ignore_patterns("__pycache__")
+    )
+    for folder in [package, *[p for p in package.rglob("*") if p.is_dir()]]:
+        (folder / "__pycache__").write_text("")
+    code = f"import tempfile; tempfile.tempdir = {UNWRITABLE!r}; " + COMPILE_ONE
+    done = _import_kernels_with(
+        code,
+        PYTHONPATH=str(package.parent),
+        NUMBA_CACHE_DIR=UNWRITABLE,
+        XDG_CACHE_HOME=UNWRITABLE,
+        HOME=UNWRITABLE,
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hertzsweep: warning: no writable folder")
+    assert float(done.stdout) < 0.5

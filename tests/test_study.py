@@ -199,21 +199,35 @@ def test_combined_dataset_dims_and_numbers(tmp_path, capsys):
     assert sweep_vars(open_dataset(split_out)).equals(sweep_vars(ds))
 
 
+def unstable_at_run_time(tmp_path):
+    """A study of two cases; the second (N = 12) fails in the kernel, not before."""
+    return write_study(
+        tmp_path / "s.toml",
+        {"solver.steps_per_period": [64, 12]},
+        damping={"ratio": 0.05, "exponent": 0},
+        excitation={"sigma": [2.0]},
+        sweep={"start": 0.5, "stop": 0.5},
+    )
+
+
 def test_failed_case_is_reported_and_others_complete(tmp_path, capsys):
-    # 3 steps per period is below the stability limit: that case raises, the other runs
+    # N = 12 passes the preflight's stability estimate (11.0 at w = 0.5) but the impacts
+    # of sigma = 2 with contact damping n = 0 reach a compression beyond it: the kernel
+    # stops that case at run time (a case that fails the preflight stops the whole study
+    # before any runs, see test_preflight.py); the other case runs
     out = tmp_path / "study.nc"
-    path = write_study(tmp_path / "s.toml", {"solver.steps_per_period": [64, 3]})
+    path = unstable_at_run_time(tmp_path)
     code, stdout, err = run_cli(["study", path, "-o", out, "--workers", "2", "-q"], capsys)
     assert code == 1
     lines = err.strip().splitlines()
     assert len(lines) == 2 and "1 of 2 cases failed" in lines[1]
-    assert "solver.steps_per_period=3: StabilityError:" in lines[0]
+    assert "solver.steps_per_period=12: StabilityError:" in lines[0]
     assert "stability limit" in lines[0] and ".error.json" in lines[0]
     cases = expand(load_study(path))
     record = json.loads((parts_folder(out) / f"{cases[1].hash}.error.json").read_text())
-    assert record["grid"] == {"solver.steps_per_period": 3}
-    assert record["config"]["steps_per_period"] == 3
-    assert record["config"]["damping_exponent"] == 1.5
+    assert record["grid"] == {"solver.steps_per_period": 12}
+    assert record["config"]["steps_per_period"] == 12
+    assert record["config"]["damping_exponent"] == 0
     assert record["error"]["type"] == "StabilityError"
     assert "Traceback" in record["error"]["traceback"]
     ds = open_dataset(out)
@@ -221,8 +235,8 @@ def test_failed_case_is_reported_and_others_complete(tmp_path, capsys):
     np.testing.assert_array_equal(ds.case_failed, [0, 1])
     good = ds.sel(solver_steps_per_period=64)
     assert np.array_equal(good.amplitude.values, run_sweep(cases[0].scene).amplitude)
-    assert np.all(np.isnan(ds.amplitude.sel(solver_steps_per_period=3)))
-    assert np.all(ds.settled.sel(solver_steps_per_period=3) == -1)
+    assert np.all(np.isnan(ds.amplitude.sel(solver_steps_per_period=12)))
+    assert np.all(ds.settled.sel(solver_steps_per_period=12) == -1)
     assert "StabilityError" in ds.attrs["study_failures"] and ds.attrs["study_failed"] == 1
 
 
@@ -284,7 +298,7 @@ def test_driver_hands_results_to_on_case_and_writes_nothing(tmp_path, monkeypatc
     # The driver runs each case to its driver's result and hands it to the caller's
     # on_case; it writes no file (the output layer does, through on_case)
     monkeypatch.chdir(tmp_path)
-    path = write_study(tmp_path / "s.toml", {"solver.steps_per_period": [64, 3]})
+    path = unstable_at_run_time(tmp_path)
     cases = expand(load_study(path))
     before = sorted(tmp_path.rglob("*"))
     kept = []
@@ -422,3 +436,11 @@ def test_sigkill_leaves_no_corrupt_part_or_output(tmp_path):
     assert len(parts) >= 2
     for part in parts:  # every part present opens and is the case it names
         assert part.stem in hashes and read_part(part, part.stem) is not None
+
+
+def test_case_kinds_are_the_kinds_with_a_case_driver():
+    # the command line checks a study's kind before the output layer (and its registry of
+    # kinds) is loaded: the short list it uses must be the registry's
+    from hertzsweep.drivers.study import CASE_KINDS
+
+    assert CASE_KINDS == STUDY_KINDS

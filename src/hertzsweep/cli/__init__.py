@@ -14,13 +14,13 @@ Each command lives in a submodule that registers itself on the group
 from __future__ import annotations
 
 import os
-import signal
 import sys
 from collections.abc import Sequence
 
 import click
 
 from ..errors import Failed, HertzsweepError, Interrupted, Stopped
+from . import signals
 from .group import cli
 
 EXIT_USAGE = 2  # bad file, key, value or setting (and click's usage errors)
@@ -57,7 +57,7 @@ def main(argv: Sequence[str] | None = None) -> None:
 
 def _run(argv: Sequence[str] | None) -> None:
     """Run the group on ``argv`` and map every exception to its message and exit status."""
-    signal.signal(signal.SIGTERM, _terminate)
+    signals.install()
     try:
         cli.main(args=list(argv) if argv is not None else None, standalone_mode=False)
     except click.exceptions.Exit as exc:
@@ -82,8 +82,3 @@ def _run(argv: Sequence[str] | None) -> None:
 def _interrupted_status(exc: BaseException | None) -> int:
     """128 + the signal that stopped a run (SIGINT when not known)."""
     return 128 + exc.signal_number if isinstance(exc, Interrupted) else EXIT_INTERRUPTED
-
-
-def _terminate(signal_number: int, frame: object) -> None:
-    """SIGTERM ends a run like SIGINT: what is finished is kept."""
-    raise Interrupted(None, signal_number)

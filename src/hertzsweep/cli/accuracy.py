@@ -58,6 +58,7 @@ def accuracy_command(
     frequencies, prints the table, the observed order and the Pareto front.
     """
     scene = options.read_scene(scene_file, overrides)
+    options.claim_output(output, scene.inputs)
     check_stability(scene)
     steps = parse_steps(steps_text) if steps_text is not None else None
     settle = parse_settle_list(settle_text) if settle_text is not None else None

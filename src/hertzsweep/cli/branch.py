@@ -22,6 +22,7 @@ def branch_command(scene_file: str, output: str, overrides: tuple[str, ...], qui
     from ..drivers.continuation import progress_total
 
     scene = options.read_scene(scene_file, overrides)
+    options.claim_output(output, scene.inputs)
     with progress_bar(progress_total(scene), "branch", not quiet, unit="%") as progress:
         result = BRANCH.run(scene, progress)
     options.write_result(BRANCH, result, scene, output)

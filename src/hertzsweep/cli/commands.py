@@ -8,9 +8,10 @@ import math
 
 import click
 
-from ..core.config import load_rig
-from ..core.model import check_stability, stability_limit
-from ..core.rig import UNITS, derive
+from ..core.checks import check_rig, format_size, load_checked_scene
+from ..core.config import read_rig
+from ..core.model import stability_limit
+from ..core.rig import UNITS
 from . import options
 from .group import cli
 
@@ -36,7 +37,8 @@ HERTZ_ONLY = ("hertz_contact_stiffness", "hertz_natural_frequency")  # shown bes
 
 
 def _scene_or_none(path: str):
-    """The scene of a scene file, or None for a bare rig file."""
+    """The scene of a scene file, checked as a run would check it, or None for a bare
+    rig file."""
     from ..core.config import read_toml
 
     raw = read_toml(path)
@@ -48,8 +50,8 @@ def _scene_or_none(path: str):
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
 def rig_command(file: str, as_json: bool) -> None:
     """Derived constants of a rig, or of a scene's rig (eq. 2, 3, 12, 15)."""
-    rig = load_rig(file)
-    constants = derive(rig).as_dict()
+    rig, source = read_rig(file)
+    constants = check_rig(rig, source).as_dict()
     scene = _scene_or_none(file)
     if scene is not None:
         limit = stability_limit(scene)
@@ -78,12 +80,16 @@ def rig_command(file: str, as_json: bool) -> None:
 @options.set_option
 def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
     """Check a scene: exit 0, or one line naming file, key and reason, exit 2."""
-    scene = options.read_scene(scene_file, overrides)
-    check_stability(scene)
-    limit = stability_limit(scene)
+    scene, figures = load_checked_scene(scene_file, overrides)
     steps = scene.solver.steps_per_period
+    limit = figures.stability_limit
     click.echo(
         f"{scene_file}: ok: {len(scene.sweep.directions)} direction(s) x "
-        f"{len(scene.excitation.sigma)} sigma x {scene.sweep.frequency_ratios.size} frequencies; "
-        f"steps_per_period {steps} is {steps / limit:.1f}x the stability limit {limit:.1f}"
+        f"{len(scene.excitation.sigma)} sigma x {figures.points} frequencies "
+        f"({figures.trajectories} trajector{'y' if figures.trajectories == 1 else 'ies'} of "
+        f"{figures.periods_per_dwell} periods a dwell); "
+        f"steps_per_period {steps} is {figures.stability_margin:.1f}x the stability limit "
+        f"{limit:.1f}; {figures.steps:.3g} integration steps of the budget "
+        f"{figures.max_steps:.3g}; results {format_size(figures.memory)} of the budget "
+        f"{format_size(figures.memory_budget)}"
     )

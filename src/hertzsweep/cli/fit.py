@@ -88,6 +88,7 @@ def fit_command(
     from ..output.measured import fit_json, fit_summary
 
     scene = options.read_scene(scene_file, overrides)
+    options.claim_output(output, (measured_file, *scene.inputs))
     data = read_measurements(measured_file)
     free = [key.strip() for key in free_text.split(",") if key.strip()]
     total = expected_evaluations(len(free), compare_laws)

@@ -22,6 +22,7 @@ def import_command(csv_file: str, output: str) -> None:
     jump frequencies (direction,sigma,jump_frequency) into a dataset of kind measured:
     the sweep layout, NaN where not measured. A bad file ends with one line naming the
     file, the line and the column (exit 2)."""
+    options.claim_output(output, (csv_file,))
     data = MEASURED.run(csv_file)
     options.write_result(MEASURED, data, None, output)
 

@@ -1,15 +1,25 @@
-"""Options and steps shared by several commands: reading a scene or a dataset, writing
-a command's dataset and printing its summary."""
+"""Options and steps shared by several commands: reading a scene or a dataset, claiming
+and writing a command's output and printing its summary.
+
+An output (``-o``) is checked twice before anything is computed: by the option itself
+(:func:`hertzsweep.output.paths.check_output`: not empty, not a folder, a special file or
+a symbolic link, in a writable folder), and by :func:`claim_output`, which each writing
+command calls once it knows its input files: not one of them, then locked against a
+second run writing the same output, stale temporaries of a killed run removed.
+"""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 import click
 
-from ..core.config import Scene, load_scene
+from ..core.checks import load_checked_scene
+from ..core.config import Scene
 from ..errors import HertzsweepError
+from ..output import paths
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -17,8 +27,23 @@ if TYPE_CHECKING:
     from ..output.kinds import Kind
 
 scene_argument = click.argument("scene_file", metavar="SCENE", type=click.Path(dir_okay=False))
+
+
+def _checked_output(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """The ``-o`` callback: what needs no scene is refused before anything is read."""
+    if value is not None:
+        paths.check_output(value)
+    return value
+
+
 output_option = click.option(
-    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="netCDF file to write."
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(),
+    metavar="OUT.nc",
+    callback=_checked_output,
+    help="netCDF file to write.",
 )
 set_option = click.option(
     "--set",
@@ -31,8 +56,9 @@ quiet_option = click.option("-q", "--quiet", is_flag=True, help="No progress bar
 
 
 def read_scene(scene_file: str, overrides: tuple[str, ...] = ()) -> Scene:
-    """The scene of a file, with ``--set`` overrides applied."""
-    return load_scene(scene_file, overrides)
+    """The scene of a file, with ``--set`` overrides applied, after every check a run
+    makes (:func:`hertzsweep.core.checks.preflight`)."""
+    return load_checked_scene(scene_file, overrides)[0]
 
 
 def read_dataset(path: str | os.PathLike) -> xr.Dataset:
@@ -54,6 +80,35 @@ def read_dataset(path: str | os.PathLike) -> xr.Dataset:
     except (OSError, ValueError) as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise HertzsweepError(f"{path}: cannot read it as netCDF ({reason})") from None
+
+
+def claim_output(
+    output: str, inputs: Iterable[str | os.PathLike] = (), folders: Iterable[str] = ()
+) -> None:
+    """Claim a command's output once its input files are known, before computing: refuse
+    one of ``inputs``; take the output's lock until the command ends (a second run
+    writing it is refused); remove the temporaries a killed run left beside it (and in
+    ``folders``, a study's parts), saying so in one line.
+
+    Raises
+    ------
+    OutputPathError
+        The output is an input, or another run holds its lock, or its lock cannot be
+        created.
+    """
+    paths.check_not_input(output, inputs)
+    lock = paths.lock_output(output)
+    click.get_current_context().call_on_close(lock.release)
+    place = os.path.dirname(output) or "."
+    removed = paths.remove_stale_temporaries(place, os.path.basename(output))
+    for folder in folders:
+        removed += paths.remove_stale_temporaries(folder)
+    if removed:
+        click.echo(
+            f"hertzsweep: removed {len(removed)} temporary file(s) of {output} left by a "
+            f"killed run: {', '.join(p.name for p in removed)}",
+            err=True,
+        )
 
 
 def write_result(kind: Kind, result: Any, scene: Scene, output: str) -> xr.Dataset:

@@ -48,7 +48,11 @@ def rerun_command(
     its config_json and command_json, with --set overrides applied; OUT.nc is a dataset of
     the same kind (without overrides, the same data bit for bit)."""
     ds = options.read_dataset(input_file)
-    kind = kind_of(ds)
+    options.claim_output(output, (input_file,))
+    try:
+        kind = kind_of(ds)
+    except HertzsweepError as exc:
+        raise exc.with_context(input_file) from None
     run = RUNNERS.get(kind.name)
     if run is None and kind.source != STUDY:  # not made by a simulation: nothing to rerun
         known = ", ".join([*RUNNERS, "study"])

@@ -4,19 +4,33 @@ Exit status: 0 when every case finished; 1 when some failed (one line each on st
 the output holds the others, ``case_failed = 1`` for those); 128 + the signal number
 (130 for SIGINT, 143 for SIGTERM) when stopped: the finished cases stay in
 ``OUT.parts/`` for ``--resume`` and the output is not written; 2 for a bad study file,
-key or value.
+key or value, or an output that cannot be written.
+
+A study that writes no output (stopped, or every case failed) leaves a file already at
+``OUT.nc`` as it was, and says in its last line that it is an earlier run's result.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import click
 
-from ..drivers.study import DaskCluster, LocalPool, cases_summary, expand, load_study
+from ..drivers.study import (
+    CASE_KINDS,
+    DaskCluster,
+    LocalPool,
+    cases_summary,
+    expand,
+    load_study,
+)
 from ..errors import Failed, Stopped
+from ..output.paths import parts_folder
+from . import options
 from .group import cli
 from .options import output_option, quiet_option
 from .progress import progress_bar
@@ -85,24 +99,30 @@ def study_command(
     rerun with --resume); 2 a bad study file, key or value."""
     if workers is not None and scheduler is not None:
         raise click.UsageError("--workers and --scheduler exclude each other")
-    # the local workers start (and warm up) first, while the driver imports the output
-    # layer and reads the study: the start-up of both overlaps
+    if scheduler is not None and not scheduler.strip():
+        raise click.UsageError("--scheduler: empty address (give tcp://HOST:PORT)")
+    # the local workers start (and warm up) while the driver imports the output layer:
+    # the start-up of both overlaps
+    study = load_study(study_file, CASE_KINDS)  # the study and every case checked (with
+    cases = expand(study)  # the output) before any worker starts
+    options.claim_output(output, study_inputs(study_file), folders=(parts_folder(output),))
     engine = DaskCluster(scheduler) if scheduler else LocalPool(workers)
     try:
-        _run(study_file, output, engine, resume, quiet)
+        _run(study, cases, output, engine, resume, quiet)
+    except BaseException:  # a bad study file, a failed case, a signal: no worker is needed
+        engine.stop(())  # any more, and one still starting is not waited for
+        raise
     finally:
         engine.close()
 
 
-def _run(study_file: str, output: str, engine, resume: bool, quiet: bool) -> None:
-    """The study on an engine: cases, parts, the combined dataset and its summary."""
+def _run(study, cases, output: str, engine, resume: bool, quiet: bool) -> None:
+    """The study on an engine: parts, the combined dataset and its summary."""
     from ..output.dataset import history_line
-    from ..output.kinds import KINDS, STUDY_KINDS
+    from ..output.kinds import KINDS
     from ..output.study import resumable
 
     study_kind = KINDS["study"]
-    study = load_study(study_file, STUDY_KINDS)
-    cases = expand(study)
     history = history_line()
     resumed = resumable(cases, output) if resume else []
     stop = StopRequest()
@@ -123,10 +143,25 @@ def _run(study_file: str, output: str, engine, resume: bool, quiet: bool) -> Non
     conclude(study_kind, study, cases, output, history, run, engine)
 
 
+def study_inputs(study_file: str) -> tuple[str, ...]:
+    """The files a study reads: the study file, the scene file it names and their rig
+    files (an output must be none of them)."""
+    from ..core.config import read_scene_files, read_toml
+
+    files = read_scene_files(study_file)[1]
+    scene = read_toml(study_file).get("scene")
+    if isinstance(scene, str):
+        files += read_scene_files(Path(study_file).parent / scene)[1]
+    return files
+
+
 def conclude(kind, study, cases, output: str, history: str, run, engine) -> None:
     """After a study's cases ran: one line per failed case; when stopped by a signal, the
     finished cases kept for ``--resume``; else ONE dataset built, written and summarised
-    (exit status 1 when cases failed)."""
+    (exit status 1 when cases failed).
+
+    A study that writes no output (stopped, or every case failed) leaves a file already
+    at ``output`` as it was, and its last line says that file is an earlier run's."""
     from ..output.dataset import write_atomic
     from ..output.study import failure_lines, parts_folder
 
@@ -138,7 +173,7 @@ def conclude(kind, study, cases, output: str, history: str, run, engine) -> None
         name = signal.Signals(run.stopped_by).name
         done = len(run.computed) + len(run.resumed)
         message = f"interrupted by {name}: {done} of {len(cases)} cases finished, kept in {folder}"
-        raise Stopped(f"{message}; rerun with --resume", run.stopped_by)
+        raise Stopped(f"{message}; rerun with --resume{_earlier(output)}", run.stopped_by)
     ds = kind.build(study, cases, output, history, failures)
     if ds is not None:
         write_atomic(ds, output)
@@ -149,8 +184,15 @@ def conclude(kind, study, cases, output: str, history: str, run, engine) -> None
     if ds is not None:
         click.echo(f"wrote {output}")
     if failures:
-        written = "" if ds is not None else "; no output written"
+        written = "" if ds is not None else f"; no output written{_earlier(output)}"
         raise Failed(f"{len(failures)} of {len(cases)} cases failed{written}")
+
+
+def _earlier(output: str) -> str:
+    """What a study that wrote nothing says of a file already at its output."""
+    if not os.path.lexists(output):
+        return ""
+    return f"; {output} is left as it was: an earlier run's, not this one's"
 
 
 __all__ = ["conclude", "study_command"]

@@ -8,7 +8,8 @@ import click
 import numpy as np
 
 from ..drivers.sweep import dwell_count
-from ..errors import Interrupted
+from ..errors import HertzsweepError, Interrupted
+from ..output import paths
 from ..output.dataset import write_atomic
 from ..output.kinds import KINDS
 from . import options
@@ -28,6 +29,7 @@ FINISHED_ATTRS = {"long_name": "that sweep ran to its end", "units": "1"}
 def sweep_command(scene_file: str, output: str, overrides: tuple[str, ...], quiet: bool) -> None:
     """Stepped-sine sweeps, up and/or down, for every sigma; prints a short table."""
     scene = options.read_scene(scene_file, overrides)
+    options.claim_output(output, scene.inputs)
     try:
         with progress_bar(dwell_count(scene), "sweep", not quiet) as progress:
             result = SWEEP.run(scene, progress)
@@ -38,9 +40,13 @@ def sweep_command(scene_file: str, output: str, overrides: tuple[str, ...], quie
 
 
 def keep_partial(exc: Interrupted, scene, output: str) -> None:
-    """Write the finished dwells of an interrupted run to ``OUT.partial.nc`` (atomically;
-    dwells not reached are NaN, ``finished`` marks the sweeps that ran to their end,
-    attribute ``complete = 0``); the output itself stays absent."""
+    """Write the finished dwells of an interrupted run to ``OUT.partial.nc`` (dwells not
+    reached are NaN, ``finished`` marks the sweeps that ran to their end, attribute
+    ``complete = 0``); the output itself stays absent.
+
+    The partial file is written as the output is: not over one of the run's inputs, nor
+    over a link, a folder or a special file, atomically. When it cannot be written, one
+    line says why and the run still ends as interrupted."""
     result = exc.partial
     if result is None or not np.isfinite(result.amplitude).any():
         return
@@ -48,7 +54,13 @@ def keep_partial(exc: Interrupted, scene, output: str) -> None:
     ds["finished"] = (("direction", "sigma"), result.finished.astype(np.int8), FINISHED_ATTRS)
     ds.attrs["complete"] = 0
     partial = Path(output).with_suffix(".partial.nc")
-    write_atomic(ds, partial)
+    try:
+        paths.check_not_input(partial, scene.inputs)
+        write_atomic(ds, partial)
+    except (OSError, HertzsweepError) as error:
+        where = f"{error.filename}: {error.strerror}" if isinstance(error, OSError) else error
+        click.echo(f"hertzsweep: cannot keep the finished dwells: {where}", err=True)
+        return
     dwells = int(np.isfinite(result.amplitude[..., 0]).sum())
     click.echo(
         f"kept {dwells} finished dwell(s), {int(result.finished.sum())} whole sweep(s), "

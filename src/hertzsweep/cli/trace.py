@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from ..core.checks import check_record
 from ..drivers.trace import BRANCHES, DEFAULT_PERIODS, trace_count
 from ..output.kinds import KINDS
 from . import options
@@ -60,6 +61,8 @@ def trace_command(
     """Settled time history of one frequency for every sigma: q, q', N/F_s and contact,
     the spectrum of N/F_s, and every flight; prints one line per sigma."""
     scene = options.read_scene(scene_file, overrides)
+    check_record(scene, periods, samples_per_period)
+    options.claim_output(output, scene.inputs)
     with progress_bar(trace_count(scene, frequency_ratio, branch), "trace", not quiet) as bar:
         result = TRACE.run(
             scene,

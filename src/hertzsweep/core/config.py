@@ -13,9 +13,11 @@ are applied to the raw tables before validation, so they are checked like the fi
 from __future__ import annotations
 
 import math
+import os
+import stat
 import tomllib
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +33,10 @@ DAMPING_LAWS = ("viscous", "contact")
 DIRECTIONS = ("up", "down")
 STEADY_STATE_METHODS = ("settle", "shooting")
 SOLVER_METHODS = ("central-difference",)
+# The largest input file (scene, rig, study) read: the largest shipped file is under 2 kB
+# and a study's grid of a thousand values is under 20 kB, so 1 MiB leaves room for any
+# real file while a wrong path (a log, an image, a disk image) is refused before it is read.
+MAX_INPUT_BYTES = 1 << 20
 
 
 # --------------------------------------------------------------------------- dataclasses
@@ -118,10 +124,16 @@ class SweepConfig:
 
 @dataclass(frozen=True)
 class SolverConfig:
-    """Time integration: the paper's central-difference scheme."""
+    """Time integration: the paper's central-difference scheme.
+
+    ``max_steps`` raises the budget of integration steps a run may take (``None``: the
+    default budget, :data:`hertzsweep.core.checks.DEFAULT_MAX_STEPS`). It bounds the run,
+    never changes a result, so it is not among :meth:`Scene.attributes`.
+    """
 
     method: str = "central-difference"
     steps_per_period: int = 256
+    max_steps: int | None = None
 
 
 @dataclass(frozen=True)
@@ -142,12 +154,17 @@ class Scene:
     solver: SolverConfig = SolverConfig()
     lockin: LockinConfig = LockinConfig()
     source: str = "<scene>"
+    # the files the scene was read from (the scene, then its rig file if any): an output
+    # path must not be one of them; not part of the scene's value
+    inputs: tuple[str, ...] = field(default=(), compare=False)
 
     def attributes(self) -> dict[str, Any]:
         """Every resolved value as flat ``table_key`` attributes (netCDF-friendly)."""
         out: dict[str, Any] = {}
         for table in ("rig", "damping", "excitation", "sweep", "solver", "lockin"):
             for key, value in asdict(getattr(self, table)).items():
+                if (table, key) in BUDGET_KEYS:
+                    continue
                 bare = table == "rig" or (table, key) == ("solver", "steps_per_period")
                 name = key if bare else f"{table}_{key}"  # SPEC: damping_ratio, steps_per_period
                 if value is None:
@@ -313,10 +330,12 @@ SCHEMA: dict[str, dict[str, Check]] = {
     "solver": {
         "method": lambda s, k, v: _string(s, k, v, SOLVER_METHODS),
         "steps_per_period": _positive_int,
+        "max_steps": _positive_int,
     },
     "lockin": {"harmonics": _harmonics},
 }
 REQUIRED_RIG_KEYS = ("ball_radius", "youngs_modulus", "poisson_ratio", "mass")
+BUDGET_KEYS = {("solver", "max_steps")}  # limits of a run, not settings of its result
 CLASSES = {
     "rig": RigConfig,
     "damping": DampingConfig,
@@ -347,11 +366,50 @@ def rig_from_table(source: str, raw: Mapping[str, Any]) -> RigConfig:
     for key in REQUIRED_RIG_KEYS:
         if key not in values:
             raise ConfigError(source, f"rig.{key}", "missing (the rig's keys have no default)")
-    return RigConfig(**values)
+    try:
+        return RigConfig(**values)
+    except OverflowError:  # the default ball mass of a huge radius
+        key = rig_key_furthest(values)
+        raise ConfigError(source, key, "the ball's mass from its radius overflows") from None
 
 
-def scene_from_dict(raw: Mapping[str, Any], source: str = "<scene>") -> Scene:
+# The paper's rig (section 2): the yardstick of rig_key_furthest
+PAPER_RIG_VALUES = {
+    "ball_radius": 12.7e-3,  # [m]
+    "youngs_modulus": 210e9,  # [Pa]
+    "mass": 11.4,  # [kg]
+    "static_load": 110.0,  # [N]
+    "ball_mass": 0.067,  # [kg] a 12.7 mm steel ball
+    "ball_density": STEEL_DENSITY,  # [kg m^-3]
+    "natural_frequency": 230.8,  # [Hz]
+}
+EXTREME_DECADES = 3.0  # a rig value this many decades from the paper's is named alone
+
+
+def rig_key_furthest(values: Mapping[str, Any]) -> str:
+    """The ``rig.KEY`` most responsible for a rig whose constants cannot be used (not
+    finite, or out of range): the value furthest from the paper's rig in decades
+    (``1 - nu^2`` for ``poisson_ratio``, whose limit -1 makes E* unbounded), when it is at
+    least :data:`EXTREME_DECADES` away; else ``rig`` (the values together)."""
+    distance: dict[str, float] = {}
+    for key, reference in PAPER_RIG_VALUES.items():
+        value = values.get(key)
+        if isinstance(value, int | float) and value > 0 and math.isfinite(value):
+            distance[key] = abs(math.log10(value) - math.log10(reference))
+    nu = values.get("poisson_ratio")
+    if isinstance(nu, int | float) and -1.0 < nu < 1.0:
+        distance["poisson_ratio"] = -math.log10(1.0 - nu * nu)
+    key, decades = max(distance.items(), key=lambda item: item[1], default=("", 0.0))
+    return f"rig.{key}" if decades >= EXTREME_DECADES else "rig"
+
+
+def scene_from_dict(
+    raw: Mapping[str, Any], source: str = "<scene>", rig_source: str | None = None
+) -> Scene:
     """Validate a raw scene mapping whose ``rig`` is already an inline table.
+
+    ``rig_source`` names the file the ``[rig]`` values came from (a rig file the scene
+    refers to) in their errors; default ``source``.
 
     Raises
     ------
@@ -364,7 +422,7 @@ def scene_from_dict(raw: Mapping[str, Any], source: str = "<scene>") -> Scene:
             raise ConfigError(source, key, f"unknown table (known: {known})")
     if "rig" not in raw:
         raise ConfigError(source, "rig", "missing: give rig = 'file.toml' or a [rig] table")
-    rig = rig_from_table(source, raw["rig"])
+    rig = rig_from_table(rig_source or source, raw["rig"])
     tables = {name: CLASSES[name](**_table(source, raw, name)) for name in CLASSES if name != "rig"}
     sweep: SweepConfig = tables["sweep"]
     if sweep.stop < sweep.start:
@@ -381,19 +439,102 @@ def scene_from_dict(raw: Mapping[str, Any], source: str = "<scene>") -> Scene:
 
 
 # --------------------------------------------------------------------------- files
-def read_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file; a missing or malformed file is a ConfigError."""
-    path = Path(path)
+FILE_KINDS = (  # stat test -> what a path that is not a regular file is, in errors
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISFIFO, "a named pipe (FIFO)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _not_regular(mode: int) -> str | None:
+    """What a file of this mode is when it is not a regular file (None when it is)."""
+    if stat.S_ISREG(mode):
+        return None
+    return next((name for test, name in FILE_KINDS if test(mode)), "not a regular file")
+
+
+def _too_large(size: int, limit: int) -> str:
+    return f"too large ({size} bytes; an input file holds at most {limit} bytes)"
+
+
+def read_text(path: str | Path, limit: int = MAX_INPUT_BYTES) -> str:
+    """The text of an input file (scene, rig, study, measurements): a regular file of at
+    most ``limit`` bytes (:data:`MAX_INPUT_BYTES`), UTF-8 without NUL bytes; anything else
+    is a ConfigError naming the file.
+
+    The path is looked at (``os.stat``) before it is opened, so a FIFO, a device or a
+    socket is never opened (a FIFO would block, ``/dev/zero`` never ends); it is opened
+    non-blocking and looked at again through the open descriptor (the path may have been
+    replaced in between), and at most ``limit + 1`` bytes are read.
+    """
+    name = str(path)
     try:
-        text = path.read_text()
+        info = os.stat(path)
     except FileNotFoundError:
-        raise ConfigError(str(path), "", "no such file") from None
+        raise ConfigError(name, "", "no such file") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path
+        raise ConfigError(
+            name, "", f"cannot read ({getattr(exc, 'strerror', None) or exc})"
+        ) from None
+    kind = _not_regular(info.st_mode)
+    if kind:
+        raise ConfigError(name, "", f"not a regular file but {kind}")
+    if info.st_size > limit:
+        raise ConfigError(name, "", _too_large(info.st_size, limit))
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+    flags |= getattr(os, "O_NOCTTY", 0)
+    try:
+        fd = os.open(path, flags)
     except OSError as exc:
-        raise ConfigError(str(path), "", f"cannot read ({exc.strerror})") from None
+        raise ConfigError(name, "", f"cannot read ({exc.strerror or exc})") from None
+    try:
+        kind = _not_regular(os.fstat(fd).st_mode)
+        if kind:
+            raise ConfigError(name, "", f"not a regular file but {kind}")
+        chunks = []
+        size = 0
+        while size <= limit:
+            chunk = os.read(fd, limit + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        raise ConfigError(name, "", f"cannot read ({exc.strerror or exc})") from None
+    finally:
+        os.close(fd)
+    data = b"".join(chunks)
+    if len(data) > limit:
+        raise ConfigError(name, "", _too_large(len(data), limit))
+    nul = data.find(b"\0")
+    if nul >= 0:
+        raise ConfigError(name, "", f"not a text file (a NUL byte at offset {nul})")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        byte = data[exc.start]
+        raise ConfigError(
+            name, "", f"not UTF-8 text (byte 0x{byte:02x} at offset {exc.start}, line {line})"
+        ) from None
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file (:func:`read_text`); a missing, special, oversized, binary or
+    malformed file is a ConfigError naming it."""
+    text = read_text(path)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(path), "", f"not valid TOML ({exc})") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise ConfigError(str(path), "", f"not valid TOML ({exc})") from None
+    except RecursionError:
+        raise ConfigError(
+            str(path), "", "not valid TOML (arrays or tables nested too deep)"
+        ) from None
 
 
 def parse_override(text: str) -> tuple[str, Any]:
@@ -409,6 +550,10 @@ def parse_override(text: str) -> tuple[str, Any]:
         parsed = tomllib.loads(f"v = {value.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         parsed = value.strip()
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise ConfigError("--set", key, f"cannot read the value ({exc})") from None
+    except RecursionError:
+        raise ConfigError("--set", key, "cannot read the value (nested too deep)") from None
     return key, parsed
 
 
@@ -423,44 +568,97 @@ def apply_override(raw: dict[str, Any], key: str, value: Any, source: str = "--s
     sub[name] = value
 
 
+def same_file(a: Path, b: Path) -> bool:
+    """Whether two existing paths are the same file (False when either cannot be looked at)."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
 def load_raw_scene(path: str | Path) -> dict[str, Any]:
     """Read a scene file and inline its rig (``rig = "file"`` is relative to the scene)."""
+    return read_scene_files(path)[0]
+
+
+def read_scene_files(path: str | Path) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """:func:`load_raw_scene`, and the files read: the scene, then its rig file if any.
+
+    ``rig`` is a file name or a ``[rig]`` table. A rig file holds only a ``[rig]`` table:
+    it cannot name another file (so references neither chain nor cycle), and a scene
+    cannot name itself as its rig.
+    """
     path = Path(path)
     raw = read_toml(path)
     rig = raw.get("rig")
+    if rig is not None and not isinstance(rig, str | Mapping):
+        raise ConfigError(
+            str(path), "rig", f"expected a rig file name or a [rig] table, got {rig!r}"
+        )
     if isinstance(rig, str):
+        if not rig.strip():
+            raise ConfigError(str(path), "rig", "expected a rig file name, got an empty string")
         rig_path = (path.parent / rig) if not Path(rig).is_absolute() else Path(rig)
         if not rig_path.exists():
             raise ConfigError(str(path), "rig", f"rig file {str(rig_path)!r} does not exist")
+        if same_file(rig_path, path):
+            raise ConfigError(str(path), "rig", f"names the scene file itself ({rig!r})")
         rig_raw = read_toml(rig_path)
         extra = set(rig_raw) - {"rig"}
         if extra or "rig" not in rig_raw:
             raise ConfigError(
                 str(rig_path), ", ".join(sorted(extra)) or "rig", "a rig file holds only [rig]"
             )
+        if not isinstance(rig_raw["rig"], Mapping):
+            raise ConfigError(
+                str(rig_path),
+                "rig",
+                f"a rig file holds a [rig] table, got rig = {rig_raw['rig']!r} "
+                f"(named by {str(path)!r}; a rig file cannot name another)",
+            )
         raw["rig"] = dict(rig_raw["rig"])
-    return raw
+        return raw, (str(path), str(rig_path))
+    return raw, (str(path),)
 
 
 def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> Scene:
-    """Read, override and validate a scene file (or a rig file, which gets defaults)."""
-    raw = load_raw_scene(path)
+    """Read, override and validate a scene file (or a rig file, which gets defaults).
+
+    An error in the values of a rig file the scene names is reported under the rig
+    file's name; one in a value given by an override, under ``--set``.
+    """
+    raw, inputs = read_scene_files(path)
     overridden = set()
     for text in overrides:
         key, value = parse_override(text)
         apply_override(raw, key, value)
         overridden.add(key)
+    rig_source = inputs[1] if len(inputs) > 1 else None
     try:
-        return scene_from_dict(raw, source=str(path))
+        scene = scene_from_dict(raw, source=str(path), rig_source=rig_source)
     except ConfigError as exc:
-        if exc.key in overridden:  # the bad value came from the command line
-            raise ConfigError("--set", exc.key, exc.reason) from None
-        raise
+        raise from_command_line(exc, overridden) from None
+    return replace(scene, inputs=inputs)
+
+
+def from_command_line(exc: ConfigError, overridden: Iterable[str]) -> ConfigError:
+    """The error to report: under ``--set`` when its key was given by an override (the
+    bad value came from the command line), else ``exc`` itself."""
+    if exc.key in set(overridden):
+        return ConfigError("--set", exc.key, exc.reason)
+    return exc
+
+
+def read_rig(path: str | Path) -> tuple[RigConfig, str]:
+    """The rig of a rig file or of a scene file, and the file its values came from (the
+    rig file a scene names, else ``path``)."""
+    raw, inputs = read_scene_files(path)
+    rig = raw.get("rig")
+    if rig is None:
+        raise ConfigError(str(path), "rig", "missing: give rig = 'file.toml' or a [rig] table")
+    return rig_from_table(inputs[-1], rig), inputs[-1]
 
 
 def load_rig(path: str | Path) -> RigConfig:
     """The rig of a rig file or of a scene file."""
-    raw = load_raw_scene(path)
-    if "rig" not in raw or not isinstance(raw["rig"], Mapping):
-        raise ConfigError(str(path), "rig", "missing: give rig = 'file.toml' or a [rig] table")
-    return rig_from_table(str(path), raw["rig"])
+    return read_rig(path)[0]

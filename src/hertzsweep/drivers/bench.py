@@ -31,7 +31,7 @@ from scipy.integrate import solve_ivp
 from ..core.config import Scene, scene_from_dict
 from ..core.lockin import demodulate
 from ..core.model import check_stability
-from ..kernels import integrate, scheme
+from ..kernels import CACHE, integrate, scheme
 from ..kernels.laws import make_law
 from ..kernels.scheme import fma
 from .oscillator import drive
@@ -83,7 +83,7 @@ def _best(run, repeats: int = 3) -> float:
 
 
 # --------------------------------------------------------------------------- floors
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def _bare_chain(d, a, b, k, loads, periods):
     """The viscous update and nothing else: ``d = fma(-(k d), sqrt(d), fma(d, a, k F - b d_))``."""
     d_prev = d
@@ -95,7 +95,7 @@ def _bare_chain(d, a, b, k, loads, periods):
     return d
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def _bare_lanes(d, a, b, k, loads, periods):
     """:func:`_bare_chain` for T trajectories, trajectory innermost (vectorised): the
     throughput floor of the update across trajectories."""

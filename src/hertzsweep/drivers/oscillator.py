@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core.config import Scene
 from ..core.lockin import amplitude_phase
-from ..kernels import integrate, scheme, tangent
+from ..kernels import integrate, scheme, stop, tangent
 from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Drive, Readout
 from ..kernels.laws import make_law
 from .readings import READING_FIELDS, Readings
@@ -35,7 +35,8 @@ def drive(scene: Scene, sigma: np.ndarray | float) -> Drive:
     levels ``sigma`` (one per trajectory)."""
     sin_table, cos_table = _tables(int(scene.solver.steps_per_period))
     harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
-    return Drive(np.atleast_1d(np.asarray(sigma, dtype=float)), sin_table, cos_table, harmonics)
+    levels = np.atleast_1d(np.asarray(sigma, dtype=float))
+    return Drive(levels, sin_table, cos_table, harmonics, stop.REQUEST)
 
 
 @dataclass(frozen=True)

@@ -286,26 +286,37 @@ def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray)
     buffers = new_readout(oscillator.harmonics.size, steps.size)
     x = np.array([state.q_prev, state.q, state.h])
     start = 0
+    buffers.sums[0] = np.nan  # a dwell the compiled walk finished has its sums
     while start < steps.size:
-        stop, periods = tangent.shooting_walk(
-            x, steps, oscillator.law, oscillator.drive, settings, buffers, start
-        )
+        try:
+            stop, periods = tangent.shooting_walk(
+                x, steps, oscillator.law, oscillator.drive, settings, buffers, start
+            )
+        except KeyboardInterrupt:  # a signal stopped the walk: keep the dwells it finished
+            stop = start + int(np.argmin(np.isfinite(buffers.sums[0, start:])))
+            yield from _walked(oscillator, buffers, steps, start, stop)
+            raise
         oscillator.steps += periods * n
-        if stop > start:
-            run = slice(start, stop)
-            done = Readout(
-                buffers.coefficients[:, :, run], buffers.sums[:, run], buffers.counts[:, run],
-                buffers.record, 0,
-            )  # fmt: skip
-            samples = CONVERGED_PERIODS * n
-            block = Block.read(done, samples, steps[run], oscillator.periodic_tolerance)
-            yield run, block, np.ones(stop - start, dtype=bool)
+        yield from _walked(oscillator, buffers, steps, start, stop)
         if stop == steps.size:
             return
         state, reading, settled = shooting_dwell(oscillator, State(*x), frequencies[stop])
         yield slice(stop, stop + 1), Block.of(reading), np.array([settled])
         x[:] = state.q_prev, state.q, state.h
         start = stop + 1
+
+
+def _walked(oscillator: Oscillator, buffers: Readout, steps: np.ndarray, start: int, stop: int):
+    """The dwells ``start:stop`` the compiled walk finished, as a strategy's walk step."""
+    if stop > start:
+        run = slice(start, stop)
+        done = Readout(
+            buffers.coefficients[:, :, run], buffers.sums[:, run], buffers.counts[:, run],
+            buffers.record, 0,
+        )  # fmt: skip
+        samples = CONVERGED_PERIODS * oscillator.steps_per_period
+        block = Block.read(done, samples, steps[run], oscillator.periodic_tolerance)
+        yield run, block, np.ones(stop - start, dtype=bool)
 
 
 __all__ = [

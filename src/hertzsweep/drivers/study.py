@@ -44,7 +44,15 @@ from typing import Any
 
 import numpy as np
 
-from ..core.config import CLASSES, Scene, apply_override, load_raw_scene, scene_from_dict
+from ..core.checks import preflight
+from ..core.config import (
+    CLASSES,
+    Scene,
+    apply_override,
+    read_scene_files,
+    same_file,
+    scene_from_dict,
+)
 from ..errors import ConfigError, HertzsweepError
 
 DEFAULT_KIND = "sweep"  # a study file without `kind` (the SPEC's default)
@@ -57,6 +65,8 @@ PRELOADED = (  # imported once by the local pool's fork server, inherited by eve
     "hertzsweep.drivers.sweep",
     "hertzsweep.drivers.continuation",
 )
+CASE_KINDS = ("sweep", "branch")  # what one case of a study can be (the dataset kinds with
+# a case driver, hertzsweep.output.kinds.STUDY_KINDS): known before anything heavy loads
 
 Runner = Callable[[Scene], Any]  # a driver function: one case's scene -> its result
 
@@ -157,7 +167,9 @@ def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
     """
     path = Path(path)
     source = str(path)
-    raw = load_raw_scene(path)  # reads the file and inlines `rig = "..."` relative to it
+    # reads the file and inlines `rig = "..."` relative to it
+    raw, inputs = read_scene_files(path)
+    study_rig = inputs[1] if len(inputs) > 1 else source  # where the study's own rig is
     for key in raw:
         if key not in STUDY_KEYS and key not in CLASSES:
             known = ", ".join((*STUDY_KEYS, *CLASSES))
@@ -173,22 +185,39 @@ def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
     if not isinstance(grid_raw, dict):
         raise ConfigError(source, "grid", f"expected a table of key = [values], got {grid_raw!r}")
     scene_ref = raw.pop("scene", None)
+    given: set[str] = set()  # the tables and keys the study gives over its scene file
     if scene_ref is None:
-        base = raw
+        base, base_source, rig_source = raw, source, study_rig
     else:
         if not isinstance(scene_ref, str):
             raise ConfigError(source, "scene", f"expected a file name, got {scene_ref!r}")
         scene_path = Path(scene_ref) if Path(scene_ref).is_absolute() else path.parent / scene_ref
         if not scene_path.exists():
             raise ConfigError(source, "scene", f"scene file {str(scene_path)!r} does not exist")
-        base = load_raw_scene(scene_path)
+        if same_file(scene_path, path):
+            raise ConfigError(source, "scene", f"names the study file itself ({scene_ref!r})")
+        base, scene_inputs = read_scene_files(scene_path)
+        base_source = str(scene_path)
+        rig_source = (  # the rig's values: the study's, or the scene file's rig
+            study_rig if "rig" in raw else scene_inputs[-1]
+        )
         for table, entries in raw.items():
             if table == "rig" or not isinstance(entries, dict):
                 base[table] = entries
+                given.add(table)
                 continue
             for name, value in entries.items():
                 apply_override(base, f"{table}.{name}", value, source=source)
-    scene_from_dict(copy.deepcopy(base), source=source)  # the base itself must be valid
+                given.add(f"{table}.{name}")
+    # the base itself must be valid; an error names the file the value came from: the
+    # study, its scene file or the rig file
+    try:
+        scene_from_dict(copy.deepcopy(base), source=base_source, rig_source=rig_source)
+    except ConfigError as exc:
+        from_study = exc.key in given or exc.key.partition(".")[0] in given
+        if exc.source == base_source != source and from_study:
+            raise ConfigError(source, exc.key, exc.reason) from None
+        raise
     grid = []
     for key, values in grid_raw.items():
         if not isinstance(values, list) or not values:
@@ -233,7 +262,10 @@ def expand(study: Study) -> list[Case]:
     Raises
     ------
     ConfigError
-        A combination the config rejects (e.g. ``sweep.start`` above ``sweep.stop``).
+        A combination the config rejects (e.g. ``sweep.start`` above ``sweep.stop``), or
+        one a check of its run refuses (:func:`hertzsweep.core.checks.preflight`: the
+        stability limit, the Nyquist order, the budgets of steps and memory, ...), naming
+        the study file and the case.
     """
     axes = study.case_axes
     sigma = study.sigma_axis
@@ -247,6 +279,7 @@ def expand(study: Study) -> list[Case]:
             apply_override(raw, key, [value] if key == SIGMA_KEY else value, source=study.source)
         label = grid_label(values)
         scene = scene_from_dict(raw, source=f"{study.source}[{label}]" if label else study.source)
+        preflight(scene)  # every check the case's run makes, before any case runs
         cases.append(Case(index, values, scene, case_hash(scene, study.kind)))
     return cases
 
@@ -419,7 +452,7 @@ class LocalPool(Engine):
         if terminate is not None:
             terminate()
         else:
-            processes = list(getattr(self._executor, "_processes", {}).values())
+            processes = list((getattr(self._executor, "_processes", None) or {}).values())
             for process in processes:
                 if process.is_alive():
                     process.terminate()
@@ -431,19 +464,69 @@ class LocalPool(Engine):
         self._executor.shutdown(wait=True, cancel_futures=True)
 
 
+CONNECT_SECONDS = 10.0  # a scheduler on a local network answers in milliseconds; 10 s
+# covers a loaded or distant one and bounds what a wrong address costs
+
+
+def connect(address: str, seconds: float = CONNECT_SECONDS):
+    """A ``distributed.Client`` of the scheduler at ``address``, or one HertzsweepError
+    within about ``seconds``, whatever the address: a closed TCP port fails at once (a
+    plain socket connect first), and a port that accepts but never speaks Dask (its
+    dashboard, an HTTP server) is abandoned at the deadline, which ``Client(timeout=)``
+    alone does not bound. After a failure distributed's finalisers are kept quiet (they
+    print ``Exception ignored ...`` blocks otherwise)."""
+    import socket
+    import sys
+    import threading
+    from urllib.parse import urlsplit
+
+    def fail(reason: str) -> HertzsweepError:
+        sys.unraisablehook = lambda unraisable: None  # the run ends with this error
+        return HertzsweepError(f"--scheduler: cannot connect to {address}: {reason}")
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme == "tcp":
+        try:
+            host, port = parts.hostname, parts.port
+        except ValueError as exc:
+            raise fail(str(exc)) from None
+        if not host or port is None:
+            raise fail("expected tcp://HOST:PORT")
+        try:
+            socket.create_connection((host, port), timeout=seconds).close()
+        except OSError as exc:
+            raise fail(exc.strerror or type(exc).__name__) from None
+    outcome: dict[str, Any] = {}
+
+    def attempt() -> None:
+        from distributed import Client
+
+        try:
+            outcome["client"] = Client(address, timeout=seconds, set_as_default=False)
+        except Exception as exc:  # distributed raises OSError, TimeoutError, ValueError, ...
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=attempt, name="hertzsweep-connect", daemon=True)
+    thread.start()
+    thread.join(seconds + 1.0)
+    if "client" in outcome:
+        return outcome["client"]
+    if "error" in outcome:
+        text = str(outcome["error"]).strip().splitlines()
+        raise fail(text[0] if text else type(outcome["error"]).__name__)
+    raise fail(f"no Dask scheduler answered within {seconds:g} s")
+
+
 class DaskCluster(Engine):
     """An existing Dask distributed cluster (``distributed.Client(address)``,
     ``client.submit`` and ``as_completed``). Workers must have hertzsweep installed."""
 
     name = "Dask cluster"
 
-    def __init__(self, address: str, timeout: float = 10.0) -> None:
-        from distributed import Client, as_completed
+    def __init__(self, address: str, timeout: float = CONNECT_SECONDS) -> None:
+        from distributed import as_completed
 
-        try:
-            self.client = Client(address, timeout=timeout, set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise HertzsweepError(f"--scheduler: cannot connect to {address}: {exc}") from None
+        self.client = connect(address, timeout)
         self.slots = max(1, sum(self.client.nthreads().values()))
         self._finished = as_completed(loop=self.client.loop)
         self.address = address

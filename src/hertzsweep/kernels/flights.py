@@ -10,13 +10,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from . import CACHE
+
 DISPLACEMENT, VELOCITY, NORMAL_FORCE, IN_CONTACT = 0, 1, 2, 3
 RECORD_COLUMNS = 4
 LOSS_OF_CONTACT = -1.5  # q at which d = 1 + 2q/3 vanishes (eq. 9)
 CROSSING_BISECTIONS = 48  # halvings of one sample interval: 2^-48, below rounding of tau
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def crossing(record, i, dt):
     """Fraction s of the interval from sample i to i + 1 (``dt`` in tau) where the cubic
     Hermite interpolant of ``(q, q')`` crosses q = -3/2 (bisection; the ends lie on either
@@ -43,7 +45,7 @@ def crossing(record, i, dt):
     return 0.5 * (lo + hi)
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def flight_intervals(record, dt):
     """Every flight (run of samples out of contact) of a record, in tau from its start.
 

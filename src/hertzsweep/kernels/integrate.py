@@ -22,10 +22,12 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from . import CACHE
 from .laws import terms
 from .scheme import (
     NON_FINITE,
     OK,
+    STOPPED,
     UNSTABLE,
     compressions,
     constant,
@@ -38,11 +40,13 @@ from .scheme import (
     to_displacement,
     update,
 )
+from .stop import requested
 
-Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics"])
+Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "stop"])
 """The input and the lock-in: ``sigma`` float[T] (input level of each trajectory),
 ``sin_table``, ``cos_table`` float[N] (``sin``/``cos(2 pi j / N)``), ``harmonics`` int64[K]
-(orders demodulated, each below N/2)."""
+(orders demodulated, each below N/2), and ``stop`` (:data:`.stop.REQUEST`, polled once a
+period: a loop returns :data:`~.scheme.STOPPED` when it is set)."""
 
 Readout = namedtuple("Readout", ["coefficients", "sums", "counts", "record", "stride"])
 """What :func:`measure` reads, per trajectory t (last axis):
@@ -65,14 +69,14 @@ def new_readout(harmonics: int, trajectories: int, record=None, stride: int = 0)
     return Readout(np.zeros((harmonics, 2, trajectories)), sums, counts, record, int(stride))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def step(law, d_prev, d, load, constants):
     """One step: ``(sqrt(d), c(d), d[n+1])`` (the only place the scheme is evaluated)."""
     root, c = terms(law, d)
     return root, c, update(law, d_prev, d, root, c, load, constants)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def advance(q_prev, q, h, law, drive, periods):
     """Whole periods of one trajectory (``drive.sigma[0]``), without measuring.
 
@@ -92,13 +96,13 @@ def advance(q_prev, q, h, law, drive, periods):
             peak = root if root > peak else peak
             d_prev = d
             d = d_next
-        status = _status(d_prev, d, peak, s.limit)
+        status = _status(d_prev, d, peak, s.limit, drive.stop)
         if status != OK:
             return to_displacement(d_prev), to_displacement(d), status
     return to_displacement(d_prev), to_displacement(d), OK
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def approach(q_prev, q, h, law, drive, block, max_periods, tolerance):
     """Whole periods of one trajectory in blocks of ``block``, until the state after the
     last period of a block is within ``tolerance`` (absolute, in q) of the state one period
@@ -123,35 +127,40 @@ def approach(q_prev, q, h, law, drive, block, max_periods, tolerance):
     return q_prev, q, periods, OK, False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _finite(d_prev, d):
     """Whether the state is finite as a displacement (a finite d near the largest double
     overflows in ``q = 3 (d - 1) / 2``)."""
     return math.isfinite(to_displacement(d)) and math.isfinite(to_displacement(d_prev))
 
 
-@njit(cache=True, inline="always")
-def _status(d_prev, d, peak, limit):
+@njit(cache=CACHE, inline="always")
+def _status(d_prev, d, peak, limit, stop):
     if peak >= limit:
         return UNSTABLE
     if not _finite(d_prev, d):
         return NON_FINITE
+    if requested(stop):
+        return STOPPED
     return OK
 
 
-@njit(cache=True, error_model="numpy")
-def _batch_status(d_prev, d, peak, limit):
-    """``(status, trajectory)``: the first trajectory unstable, else the first non-finite."""
+@njit(cache=CACHE, error_model="numpy")
+def _batch_status(d_prev, d, peak, limit, stop):
+    """``(status, trajectory)``: the first trajectory unstable, else the first non-finite,
+    else :data:`~.scheme.STOPPED` (trajectory -1) when a stop was requested."""
     for t in range(d.shape[0]):
         if peak[t] >= limit[t]:
             return UNSTABLE, t
     for t in range(d.shape[0]):
         if not _finite(d_prev[t], d[t]):
             return NON_FINITE, t
+    if requested(stop):
+        return STOPPED, -1
     return OK, -1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def _periods(law, s, d_prev, d, drive, periods, peak):
     """Whole periods of T trajectories in place (the vectorised loop of :func:`advance`)."""
     table = drive.sin_table
@@ -165,13 +174,13 @@ def _periods(law, s, d_prev, d, drive, periods, peak):
                 peak[t] = root if root > peak[t] else peak[t]
                 d_prev[t] = dt
                 d[t] = d_next
-        status, t = _batch_status(d_prev, d, peak, s.limit)
+        status, t = _batch_status(d_prev, d, peak, s.limit, drive.stop)
         if status != OK:
             return status, t
     return OK, -1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def advance_batch(q_prev, q, h, law, drive, periods):
     """Whole periods of T trajectories, in place on ``q_prev``, ``q`` (float[T]), each at
     its own step ``h[t]`` and level ``drive.sigma[t]``. Returns ``(status, trajectory)``:
@@ -188,7 +197,7 @@ TALLY_START = (0.0, -np.inf, np.inf, 0.0, 0.0, -1.0, 0.0)  # total, max, min, lo
 # lead (-1: no contact seen yet), run: the running sums of :func:`tally`
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def observe(law, d_prev, d, load, constants, rate):
     """One step read like the rig's instruments: ``(sqrt(d), d[n+1], N/F_s - 1, q')`` with
     ``N/F_s = R + c q'`` and ``q' = (q[n+1] - q[n-1]) / (2 h)`` (``rate = 3 / (4 h)``)."""
@@ -197,7 +206,7 @@ def observe(law, d_prev, d, load, constants, rate):
     return root, d_next, d * root - 1.0 + c * v, v
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def tally(acc, x, touching):
     """The running sums after one more step of ``N/F_s - 1 = x``: its sum and extremes, the
     steps out of contact, the longest inner flight, the run before the first contact
@@ -214,7 +223,7 @@ def tally(acc, x, touching):
     )
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _finish(readout, t, acc, cos_sum, sin_sum):
     """Trajectory t's sums into the readout (the extremes as N/F_s)."""
     total, force_max, force_min, loss, longest, lead, run = acc
@@ -230,7 +239,7 @@ def _finish(readout, t, acc, cos_sum, sin_sum):
     readout.counts[3, t] = run
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _lockin_tables(drive):
     """``(index, shift)``: each harmonic's position in the tables and its step (k mod N)."""
     n = drive.sin_table.shape[0]
@@ -240,7 +249,7 @@ def _lockin_tables(drive):
     return np.zeros_like(shift), shift
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def measure_one(q_prev, q, h, law, drive, periods, readout):
     """:func:`measure` for one trajectory (``drive.sigma[0]``, ``h[0]``), its state in
     registers: the same :func:`observe` and :func:`tally`, so the same numbers bit for bit.
@@ -277,7 +286,7 @@ def measure_one(q_prev, q, h, law, drive, periods, readout):
                 index[i] = m - n if m >= n else m
             d_prev = d
             d = d_next
-        status = _status(d_prev, d, peak, s.limit)
+        status = _status(d_prev, d, peak, s.limit, drive.stop)
         if status != OK:
             return status, 0
     _finish(readout, 0, acc, cos_sum, sin_sum)
@@ -286,7 +295,7 @@ def measure_one(q_prev, q, h, law, drive, periods, readout):
     return OK, -1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def measure(q_prev, q, h, law, drive, periods, readout):
     """Whole periods of T trajectories (in place on ``q_prev``, ``q``), read like the rig's
     instruments into ``readout`` (:class:`Readout`, from :func:`new_readout`): the
@@ -347,7 +356,7 @@ def measure(q_prev, q, h, law, drive, periods, readout):
                     sin_sum[i, t] += excess[t] * sk
                 m = index[i] + shift[i]
                 index[i] = m - n if m >= n else m
-        status, bad = _batch_status(d_prev, d, peak, s.limit)
+        status, bad = _batch_status(d_prev, d, peak, s.limit, drive.stop)
         if status != OK:
             return status, bad
     for t in range(count):
@@ -360,7 +369,7 @@ def measure(q_prev, q, h, law, drive, periods, readout):
     return OK, -1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _tally_all(sums, excess, d):
     """:func:`tally` for every trajectory (``d``: the compression at that step)."""
     for t in range(excess.shape[0]):
@@ -370,7 +379,7 @@ def _tally_all(sums, excess, d):
         sums[4, t], sums[5, t], sums[6, t] = acc[4], acc[5], acc[6]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _sample(row, d, v, x):
     """One recorded sample: ``q, q', N/F_s, in contact``."""
     row[0] = to_displacement(d)
@@ -379,7 +388,7 @@ def _sample(row, d, v, x):
     row[3] = 1.0 if d > 0.0 else 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def restart(q_prev, q, h_old, h_new, law):
     """Carry a state from step h_old to h_new at a period boundary (excitation phase 0).
 
@@ -396,7 +405,7 @@ def restart(q_prev, q, h_old, h_new, law):
     return to_displacement(d - h_new * rate + 0.5 * h_new * h_new * curvature)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def retune_batch(q_prev, q, h, h_new, law):
     """:func:`restart` for every trajectory whose step changes; ``h`` becomes ``h_new``."""
     for t in range(q.shape[0]):
@@ -405,7 +414,7 @@ def retune_batch(q_prev, q, h, h_new, law):
             h[t] = h_new[t]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def start_from(q, velocity, h, law):
     """``q_prev`` that starts the scheme at ``(q, q')`` with excitation phase 0."""
     root, c = terms(law, to_compression(q))

@@ -34,12 +34,15 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic, overload
 
-from ..errors import IntegrationError, StabilityError
+from ..errors import IntegrationError, Interrupted, StabilityError
+from . import CACHE
 from .laws import Viscous, _law_class
+from .stop import REQUEST
 
 OK = 0
 NON_FINITE = 1
 UNSTABLE = 2
+STOPPED = 3  # a signal asked the run to stop (:mod:`.stop`); raised as Interrupted
 STATUS = {  # code -> (error raised, message; {sigma}, {w}, {steps} are filled in)
     NON_FINITE: (IntegrationError, "the state became non-finite at sigma = {sigma:g}, w = {w:g}"),
     UNSTABLE: (
@@ -52,6 +55,8 @@ STATUS = {  # code -> (error raised, message; {sigma}, {w}, {steps} are filled i
 
 def check_status(status: int, sigma: float, frequency_ratio: float, steps: int) -> None:
     """Raise the error that a kernel status means (nothing for :data:`OK`)."""
+    if status == STOPPED:
+        raise Interrupted(None, int(REQUEST[0]) or 2)  # SIGINT when not known
     if status != OK:
         error, message = STATUS[status]
         raise error(message.format(sigma=sigma, w=frequency_ratio, steps=steps))
@@ -79,19 +84,19 @@ def fma(typingctx, a, b, c):
     return sig, codegen
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def to_compression(q):
     """``d = 1 + 2 q / 3``."""
     return 1.0 + q * (2.0 / 3.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def to_displacement(d):
     """``q = 3 (d - 1) / 2``."""
     return (d - 1.0) * 1.5
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def coefficients(c, half_h, c0):
     """``(a, b, k)`` of the update for a constant damping coefficient c (see the module
     docstring)."""
@@ -126,7 +131,7 @@ def _update(law, d_prev, d, root, c, load, constants):
     return varying
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def make_step(law, h):
     """The :class:`Step` of step size h."""
     half_h = 0.5 * h
@@ -134,21 +139,21 @@ def make_step(law, h):
     return Step(h, half_h, c0, 0.75 / h, 4.0 / (h * h), coefficients(law.twozeta, half_h, c0))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def constants(s, t):
     """The update's ``(h/2, c0, a, b, k)`` of trajectory t of a :class:`Step` of arrays."""
     a, b, k = s.fixed
     return s.half_h[t], s.c0[t], a[t], b[t], k[t]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def constant(s):
     """The update's ``(h/2, c0, a, b, k)`` of a :class:`Step` of floats."""
     a, b, k = s.fixed
     return s.half_h, s.c0, a, b, k
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def make_steps(law, h):
     """The :class:`Step` of T trajectories (a field per column of ``float[8, T]``)."""
     out = np.empty((8, h.shape[0]))
@@ -160,7 +165,7 @@ def make_steps(law, h):
     return Step(out[0], out[1], out[2], out[3], out[4], (out[5], out[6], out[7]))
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def compressions(q):
     """``d = 1 + 2 q / 3`` of every trajectory (a new array)."""
     d = np.empty_like(q)
@@ -169,14 +174,14 @@ def compressions(q):
     return d
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def displacements(d, out):
     """``q = 3 (d - 1) / 2`` of every trajectory, into ``out``."""
     for t in range(d.shape[0]):
         out[t] = to_displacement(d[t])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def forcing(sigma, sin_phase):
     """``F_n = 1 + sigma sin(w tau_n)``: the load over F_s."""
     return 1.0 + sigma * sin_phase
@@ -197,6 +202,7 @@ __all__ = [
     "NON_FINITE",
     "OK",
     "STATUS",
+    "STOPPED",
     "UNSTABLE",
     "Step",
     "check_status",

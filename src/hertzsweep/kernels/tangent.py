@@ -32,11 +32,13 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from . import CACHE
 from .integrate import Readout, _finite, measure_one, restart, step
 from .laws import slopes
 from .scheme import (
     NON_FINITE,
     OK,
+    STOPPED,
     UNSTABLE,
     constant,
     forcing,
@@ -44,9 +46,10 @@ from .scheme import (
     to_compression,
     to_displacement,
 )
+from .stop import requested
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def period_map(q_prev, q, h, law, drive, derivative):
     """One period of the scheme (level ``drive.sigma[0]``) with its exact derivatives.
 
@@ -103,6 +106,8 @@ def period_map(q_prev, q, h, law, drive, derivative):
     derivative[1, 2] = 1.5 * b2
     if not (_finite(d_prev, d) and math.isfinite(b0 + b1 + b2)):
         return to_displacement(d_prev), to_displacement(d), NON_FINITE
+    if requested(drive.stop):
+        return to_displacement(d_prev), to_displacement(d), STOPPED
     return to_displacement(d_prev), to_displacement(d), OK
 
 
@@ -119,7 +124,7 @@ soon as a correction fails to shrink, and the margin below 1 of the largest Floq
 multiplier's modulus that counts as stable."""
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def newton(q_prev, q, h, law, drive, settings, residuals, monodromy):
     """Newton's method on ``P(x) = x`` at a fixed step h, from ``x = (q_prev, q)``.
 
@@ -178,7 +183,7 @@ def newton(q_prev, q, h, law, drive, settings, residuals, monodromy):
     return x0, x1, settings.max_iterations + 1, False
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def largest_multiplier(monodromy):
     """The largest modulus of the eigenvalues of a 2 x 2 monodromy matrix."""
     trace = monodromy[0, 0] + monodromy[1, 1]
@@ -190,7 +195,7 @@ def largest_multiplier(monodromy):
     return max(abs(0.5 * (trace + root)), abs(0.5 * (trace - root)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy", nogil=True)
 def shooting_walk(state, steps, law, drive, settings, readout, start):
     """Stepped-sine dwells by shooting, from dwell ``start`` on, for as long as Newton
     (monotone) lands on a stable orbit at every one: retune the state (float64[3]: q_prev,

@@ -3,7 +3,9 @@
 The one table of output attributes is :data:`ATTRIBUTES`; every builder takes names
 from it, so a variable means the same thing in every dataset. Builders take a driver's
 result and the scene and run nothing. Files are written only by the output layer and the
-command line, through :func:`atomic_path` and :func:`write_atomic`: complete or absent.
+command line, through :func:`write_atomic` and
+:func:`~hertzsweep.output.paths.atomic_path`: complete or absent (:mod:`.paths`: the
+checks, the lock and the temporary names).
 
 Every dataset is a record of how it was made (:func:`global_attributes`): the code
 (``hertzsweep_version``, ``git_commit``, the versions of Python, numpy and numba), the
@@ -19,6 +21,7 @@ for a scheduler.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import functools
 import json
@@ -26,9 +29,7 @@ import os
 import shlex
 import subprocess
 import sys
-import tempfile
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -40,6 +41,7 @@ from .. import __version__
 from ..core.config import Scene
 from ..core.rig import RigConstants, derive
 from ..drivers.readings import HARMONIC_FIELDS, SCALAR_FIELDS
+from .paths import atomic_path, write_file
 
 if TYPE_CHECKING:  # the results' types only: building a dataset runs no driver
     from ..drivers.accuracy import AccuracyReport
@@ -653,40 +655,17 @@ def accuracy_command(report: AccuracyReport) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- files
-@contextmanager
-def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
-    """A temporary name in the folder of ``path``: renamed to ``path`` (with the usual
-    file mode) when the block succeeds, removed when it fails, so the file at ``path`` is
-    complete or absent."""
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
-    except OSError as exc:  # name the output the user gave, not a temporary
-        raise OSError(exc.errno, exc.strerror, str(path)) from None
-    os.close(fd)
-    tmp = Path(name)
-    try:
-        yield tmp
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a result is a normal file
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise OSError(exc.errno, exc.strerror, str(path)) from None
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
 def write_atomic(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write netCDF4 (:func:`write_netcdf`) through :func:`atomic_path`: the output is
-    complete or absent."""
+    """Write netCDF4 (:func:`write_netcdf`) through :func:`.paths.atomic_path`: the output
+    is complete or absent; a write that fails (no space, I/O error) ends as one
+    ``OSError`` naming ``path``, its temporary removed."""
     with atomic_path(path) as tmp:
         write_netcdf(ds, tmp)
     return Path(path)
 
 
 COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}  # float arrays: about 2x smaller
+MEMORY_START = 1 << 16  # [bytes] first size of the in-memory file (it grows as needed)
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> None:
@@ -703,26 +682,62 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> None:
       ``coordinates`` (CF 5), which xarray reads back as coordinates;
     - booleans are written as int8; float data arrays are compressed.
 
+    The file is made in memory and written with one stream of ``write`` calls and an
+    ``fsync`` (:func:`~hertzsweep.output.paths.write_file`), so a write that fails raises
+    the OS's own error (no space, I/O error), not the HDF5 library's "HDF error".
+
     Raises
     ------
+    OSError
+        Writing the file failed.
     TypeError
         A variable of a type netCDF has no place for (complex, datetime, object other
         than strings), or an attribute that is None.
     """
     import netCDF4
 
-    with netCDF4.Dataset(path, "w", format="NETCDF4") as nc:
-        for key, value in ds.attrs.items():
-            nc.setncattr(key, _attribute(key, value))
-        for dim, size in ds.sizes.items():
-            nc.createDimension(str(dim), size)
-        coordinates = _coordinates_attributes(ds)
-        names = [*ds.coords, *ds.data_vars]
-        for name in names:
-            var = ds.variables[name]
-            is_coordinate = name in ds.coords
-            extra = {"coordinates": coordinates[name]} if name in coordinates else {}
-            _write_variable(nc, str(name), var, is_coordinate, extra)
+    if not getattr(netCDF4, "__has_nc_create_mem__", False):  # a library without it
+        with netCDF4.Dataset(path, "w", format="NETCDF4") as nc:
+            _fill(nc, ds)
+        return
+    nc = netCDF4.Dataset(os.fspath(path), "w", format="NETCDF4", memory=MEMORY_START)
+    try:
+        _fill(nc, ds)
+    except BaseException:
+        with contextlib.suppress(Exception):
+            nc.close()
+        raise
+    write_file(path, _hdf5_image(nc.close()))
+
+
+def _fill(nc: Any, ds: xr.Dataset) -> None:
+    """The attributes, dimensions and variables of a dataset into an open netCDF4 file."""
+    for key, value in ds.attrs.items():
+        nc.setncattr(key, _attribute(key, value))
+    for dim, size in ds.sizes.items():
+        nc.createDimension(str(dim), size)
+    coordinates = _coordinates_attributes(ds)
+    names = [*ds.coords, *ds.data_vars]
+    for name in names:
+        var = ds.variables[name]
+        is_coordinate = name in ds.coords
+        extra = {"coordinates": coordinates[name]} if name in coordinates else {}
+        _write_variable(nc, str(name), var, is_coordinate, extra)
+
+
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def _hdf5_image(image: memoryview) -> memoryview:
+    """An HDF5 file image cut at its end-of-file address: the in-memory file grows by
+    whole blocks, the bytes past the end are zeros that no reader needs. Superblock
+    versions 2 and 3 with 8-byte addresses (what netCDF4 writes) are cut; any other
+    image is kept whole."""
+    head = bytes(image[:36])
+    if len(head) < 36 or head[:8] != HDF5_SIGNATURE or head[8] not in (2, 3) or head[9] != 8:
+        return image
+    end = int.from_bytes(head[28:36], "little")
+    return image[:end] if 0 < end <= len(image) else image
 
 
 def _coordinates_attributes(ds: xr.Dataset) -> dict[Any, str]:
@@ -800,12 +815,6 @@ def _attribute(name: str, value: Any) -> Any:
     if isinstance(value, np.ndarray) and value.dtype.kind == "b":
         return value.astype(np.int8)
     return value
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def open_dataset(path: str | os.PathLike) -> xr.Dataset:

@@ -29,24 +29,25 @@ import io
 import math
 import os
 from collections.abc import Callable, Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from .. import __version__
-from ..core.config import Scene
+from ..core.config import Scene, read_text
 from ..drivers.fit import (
     FitResult,
     JumpMeasurements,
     Measurements,
     SweepMeasurements,
 )
-from ..errors import HertzsweepError, MeasurementError
+from ..errors import ConfigError, HertzsweepError, MeasurementError
 from .dataset import CONVENTIONS, LABEL, attrs, global_attributes, history_line, provenance
 
 DIRECTIONS = ("up", "down")
+MAX_MEASUREMENT_BYTES = 64 * 2**20  # a rig's CSV of sweeps or jumps is kilobytes; 64 MiB
+# leaves room for a long record and refuses a wrong file (a device, a disk image) early
 SWEEP_COLUMNS = ("direction", "sigma", "frequency", "amplitude", "phase")
 JUMP_COLUMNS = ("direction", "sigma", "jump_frequency")
 RATIO_COLUMNS = {"frequency": "frequency_ratio", "jump_frequency": "jump_frequency_ratio"}
@@ -138,13 +139,10 @@ def read_measurements(path: str | os.PathLike) -> Measurements:
         the line and the column.
     """
     source = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise MeasurementError(source, 0, "", "no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = getattr(exc, "strerror", None) or str(exc)
-        raise MeasurementError(source, 0, "", f"cannot read it ({reason})") from None
+    try:  # a regular UTF-8 text file (never a FIFO or a device), a BOM allowed
+        text = read_text(path, MAX_MEASUREMENT_BYTES).removeprefix("\ufeff")
+    except ConfigError as exc:
+        raise MeasurementError(source, 0, "", exc.reason) from None
     table = _Table(source, text)
     kind, frequency_column = _check_header(table)
     values = _parse_rows(table, kind, frequency_column)

@@ -4,8 +4,10 @@ A finished case is written atomically to ``OUT.parts/<hash>.nc`` as soon as it f
 (:class:`PartWriter`, the ``on_case`` of :func:`hertzsweep.drivers.study.run_study`), a
 failed one to ``OUT.parts/<hash>.error.json`` (its grid values, its whole resolved config
 and the error), so a study stopped at any point keeps every finished case and
-``--resume`` recomputes only the rest (:func:`resumable`). :func:`combine` makes ONE
-dataset of the parts (:func:`study_dataset`), with the grid keys as dimensions.
+``--resume`` recomputes only the rest (:func:`resumable`). A part that cannot be
+written (no space, I/O error) makes its case a failed one, recorded like any other.
+:func:`combine` makes ONE dataset of the parts (:func:`study_dataset`), with the grid
+keys as dimensions.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from ..drivers.study import (
     json_default,
     run_study,
 )
+from ..errors import HertzsweepError
 from .dataset import (
     ATTRIBUTES,
     INDEX,
@@ -45,6 +48,7 @@ from .dataset import (
     to_json,
     write_atomic,
 )
+from .paths import parts_folder
 
 Builder = Callable[[Any, Scene, str | None], xr.Dataset]  # result, scene, history -> dataset
 GRID_UNITS = {  # units of grid coordinates that are SI config values
@@ -60,11 +64,6 @@ FLAGS_WITH_MISSING = np.array([-1, 0, 1], dtype=np.int8)  # and where a case fai
 
 
 # --------------------------------------------------------------------------- parts
-def parts_folder(output: str | os.PathLike) -> Path:
-    """``OUT.parts/``: one file per finished (or failed) case."""
-    return Path(f"{output}.parts")
-
-
 def part_path(folder: Path, case: Case) -> Path:
     """``<hash>.nc``: the dataset of a finished case."""
     return folder / f"{case.hash}.nc"
@@ -115,16 +114,23 @@ class PartWriter:
 
     def __call__(self, case: Case, outcome: CaseOutcome) -> CaseOutcome:
         """Write the case's part (or its error record); returns the outcome as kept: a
-        result whose dataset cannot be built is recorded as the case's error."""
+        result whose dataset cannot be built or whose part cannot be written (no space,
+        I/O error) is recorded as the case's error, and the others go on. When even the
+        error record cannot be written, the error says so (``record_error``)."""
         if outcome.error is None:
             try:
                 dataset = self.build(outcome.result, case.scene, self.history)
-            except Exception as exc:  # a failed case is recorded, the others go on
-                outcome = CaseOutcome(error=error_record(exc), seconds=outcome.seconds)
-            else:
                 self.write_part(case, dataset)
+            except Exception as exc:  # a failed case is recorded, the others go on
+                outcome = CaseOutcome(error=_write_error(exc), seconds=outcome.seconds)
+            else:
                 return outcome
-        self.write_error(case, outcome.error)
+        try:
+            self.write_error(case, outcome.error)
+        except (OSError, HertzsweepError) as exc:
+            reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+            error = dict(outcome.error, record_error=reason)
+            outcome = CaseOutcome(error=error, seconds=outcome.seconds)
         return outcome
 
     def write_part(self, case: Case, dataset: xr.Dataset) -> Path:
@@ -192,13 +198,26 @@ def run_parts(
 
 
 def failure_lines(run: StudyRun, folder: Path) -> list[str]:
-    """One line per failed case: its grid values, the error, the record's file."""
+    """One line per failed case: its grid values, the error, the record's file (or why
+    the record could not be written)."""
     lines = []
     for case, error in run.failed:
         message = error["message"].splitlines()[0] if error["message"] else ""
-        where = error_path(folder, case)
-        lines.append(f"{case.label}: {error['type']}: {message} (config and traceback in {where})")
+        if "record_error" in error:
+            where = f"its record could not be written: {error['record_error']}"
+        else:
+            where = f"config and traceback in {error_path(folder, case)}"
+        lines.append(f"{case.label}: {error['type']}: {message} ({where})")
     return lines
+
+
+def _write_error(exc: Exception) -> dict[str, str]:
+    """The error record of a case whose dataset could not be built or written; a write
+    that failed reads as the path and the OS's reason."""
+    error = error_record(exc)
+    if isinstance(exc, OSError) and exc.strerror:
+        error["message"] = f"{exc.filename}: cannot write its part: {exc.strerror}"
+    return error
 
 
 # --------------------------------------------------------------------------- the dataset

@@ -1,0 +1,503 @@
+"""Preflight: every check a run makes on its scene, before any work.
+
+:func:`preflight` is the one function that ``validate`` runs and reports, that every
+command reading a scene runs before computing (``hertzsweep.cli.options.read_scene``) and
+that a study runs on each of its cases (``hertzsweep.drivers.study.expand``). Each check
+raises a :class:`~hertzsweep.errors.ConfigError` naming the file and the key:
+
+- the rig's derived constants (k, z_s, Omega, f0, ...) are finite and positive;
+- the frequency grid has at most :data:`MAX_POINTS` points, counted without building it,
+  all positive and distinct at the grid's rounding (12 decimals);
+- ``solver.steps_per_period`` is at most :data:`MAX_STEPS_PER_PERIOD`;
+- every lock-in harmonic lies below the Nyquist order ``steps_per_period / 2``;
+- the run's integration steps are within the budget (``solver.max_steps``, default
+  :data:`DEFAULT_MAX_STEPS`);
+- its result arrays are within :data:`MEMORY_BUDGET`;
+- the time step is within the stability limit (:func:`hertzsweep.core.model.stability_limit`).
+
+:func:`check_record` adds the record of ``hertzsweep trace`` (its memory and steps).
+
+This module imports neither numba nor xarray: ``validate`` stays light.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from .config import (
+    DampingConfig,
+    ExcitationConfig,
+    RigConfig,
+    Scene,
+    SolverConfig,
+    SweepConfig,
+    from_command_line,
+    load_scene,
+    parse_override,
+    rig_key_furthest,
+)
+from .model import omega_max, stability_limit, stability_reason
+from .rig import RigConstants, derive
+
+# The most frequencies a grid may have. The paper's finest sweeps have a few hundred;
+# 100 000 points at the default dwell (320 periods of 256 steps) are already 8e9 steps a
+# trajectory, and a grid is built (and its results kept) as arrays of this length.
+MAX_POINTS = 100_000
+# The most steps per period: the excitation and lock-in tables hold N floats each (8 MiB
+# apiece at 2**20), and 2**20 steps resolve a period 4000 times finer than the default 256.
+MAX_STEPS_PER_PERIOD = 2**20
+# The default budget of integration steps of one run (``solver.max_steps`` raises it): at
+# about 9 ns a step (the lockstep kernel's 7.1 ns plus the dwell's overheads), 1e11 steps
+# take about 15 minutes on one core. The default scene takes 2e7.
+DEFAULT_MAX_STEPS = 10**11
+# The most memory the arrays of one run's results (or one trace's record) may take.
+MEMORY_BUDGET = 2 * 2**30
+# A run's results are held about three times: the driver's arrays, the dataset built on
+# them, and the netCDF writer's contiguous copy of a variable.
+RESULT_COPIES = 3
+FLOAT = 8  # bytes of a float64
+SCALAR_READINGS = 5  # per dwell: mean_force, force_max, force_min, contact_loss, flight
+FLAGS = 2  # per dwell, one byte each: settled, periodic
+GRID_DECIMALS = 12  # SweepConfig.frequency_ratios rounds the grid to 12 decimals
+DEFAULT_SWEEP = SweepConfig()
+DEFAULT_SOLVER = SolverConfig()
+DEFAULT_POINTS = 61  # the default grid 0.90 .. 1.05 in steps of 0.0025
+DEFAULT_TRAJECTORIES = 4  # the default scene: 2 directions x 2 sigma
+DEFAULT_HARMONICS = 2  # the default lock-in: H1 and H2
+# Every derived rig constant (SI) lies within this range: a product or a square of two of
+# them (Omega^2 in eq. 3, k z_s^(3/2) = F_s, tau / Omega in seconds) stays a finite normal
+# float. The paper's rig spans 7e-6 m (z_s) to 6e9 N m^-3/2 (k), and a rig the scheme can
+# describe lies many decades inside; E = 1e-300 Pa (k = 3e-302) or R = 1e300 m
+# (k = 5e160) do not.
+DERIVED_RANGE = (1e-150, 1e150)
+RIG_LABELS = {  # derived constant -> its name in errors
+    "contact_stiffness": "contact stiffness k",
+    "static_compression": "static compression z_s",
+    "natural_circular_frequency": "natural circular frequency Omega",
+    "natural_frequency": "natural frequency f0",
+    "static_load": "static load F_s",
+    "contact_pressure": "static contact pressure p0",
+    "contact_radius": "static contact radius a",
+    "ball_mode_frequency": "ball's own mode",
+    "hertz_contact_stiffness": "Hertz contact stiffness",
+    "hertz_natural_frequency": "Hertz natural frequency",
+}
+
+
+@dataclass(frozen=True)
+class Figures:
+    """What a run of the scene takes, as :func:`preflight` found it.
+
+    Attributes
+    ----------
+    points : frequencies of the grid.
+    trajectories : directions x sigma.
+    periods_per_dwell : settling (``max_settle_periods`` for ``"auto"``) + measuring.
+    steps : integration steps of the whole run, at most (``"auto"`` may settle sooner).
+    max_steps : the budget of steps (``solver.max_steps`` or :data:`DEFAULT_MAX_STEPS`).
+    memory : [bytes] the estimate of the results' memory.
+    memory_budget : [bytes] :data:`MEMORY_BUDGET`.
+    stability_limit : the fewest steps per period the scheme is stable with.
+    stability_margin : ``steps_per_period / stability_limit`` (above 1).
+    """
+
+    points: int
+    trajectories: int
+    periods_per_dwell: int
+    steps: int
+    max_steps: int
+    memory: int
+    memory_budget: int
+    stability_limit: float
+    stability_margin: float
+
+
+# --------------------------------------------------------------------------- the rig
+def rig_source(scene: Scene) -> str:
+    """The file the scene's ``[rig]`` values came from: its rig file, else the scene."""
+    return scene.inputs[1] if len(scene.inputs) > 1 else scene.source
+
+
+def check_rig(rig: RigConfig, source: str) -> RigConstants:
+    """The rig's derived constants (:func:`hertzsweep.core.rig.derive`), each finite,
+    positive and within :data:`DERIVED_RANGE` (the ball's mode may be NaN, for a single
+    sphere-plane); a ConfigError naming ``source`` and the rig key furthest from the
+    paper's rig otherwise."""
+    values = {f.name: getattr(rig, f.name) for f in fields(rig)}
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            constants = derive(rig)
+    except (ArithmeticError, ValueError) as exc:  # OverflowError of a float power, ...
+        reason = f"the derived constants cannot be computed ({exc})"
+        raise ConfigError(source, rig_key_furthest(values), reason) from None
+    low, high = DERIVED_RANGE
+    for name, value in constants.as_dict().items():
+        if name == "ball_mode_frequency" and rig.geometry == "sphere-plane":
+            continue  # not defined: NaN
+        if not low <= value <= high:  # NaN, inf, 0 and negative values too
+            reason = (
+                f"the derived {RIG_LABELS.get(name, name)} is {value:g}, outside "
+                f"[{low:g}, {high:g}]: the rig's values give no usable constants"
+            )
+            raise ConfigError(source, rig_key_furthest(values), reason)
+    return constants
+
+
+# --------------------------------------------------------------------------- the grid
+def grid_count(sweep: SweepConfig) -> float:
+    """The number of frequencies of the grid, counted as
+    :attr:`SweepConfig.frequency_ratios` counts them but without building it: a float,
+    ``inf`` when the count is not finite."""
+    span = (sweep.stop - sweep.start) / sweep.step + 1e-9
+    return float(math.floor(span) + 1) if math.isfinite(span) else math.inf
+
+
+def grid_key(sweep: SweepConfig) -> str:
+    """The key that makes a grid long: ``sweep.stop`` when its span is further above the
+    default's than its step is below the default's, else ``sweep.step``."""
+    span_ratio = (sweep.stop - sweep.start) / (DEFAULT_SWEEP.stop - DEFAULT_SWEEP.start)
+    step_ratio = DEFAULT_SWEEP.step / sweep.step
+    return "sweep.stop" if span_ratio > step_ratio else "sweep.step"
+
+
+def check_grid(scene: Scene) -> np.ndarray:
+    """The grid of a scene: at most :data:`MAX_POINTS` points (counted first), each
+    positive and distinct after the grid's rounding to 12 decimals."""
+    sweep = scene.sweep
+    count = grid_count(sweep)
+    if count > MAX_POINTS:
+        shown = f"{count:.0f}" if count < 1e15 else f"{count:.3g}"  # exact while it is
+        raise ConfigError(
+            scene.source,
+            grid_key(sweep),
+            f"the grid {sweep.start:g} .. {sweep.stop:g} in steps of {sweep.step:g} has "
+            f"{shown} frequencies, more than {MAX_POINTS}",
+        )
+    grid = sweep.frequency_ratios
+    if grid[0] <= 0.0:
+        raise ConfigError(
+            scene.source,
+            "sweep.start",
+            f"{sweep.start:g} rounds to 0 at the grid's {GRID_DECIMALS} decimals",
+        )
+    if grid.size > 1 and not np.all(np.diff(grid) > 0.0):
+        raise ConfigError(
+            scene.source,
+            "sweep.step",
+            f"{sweep.step:g} is below the grid's resolution 1e-{GRID_DECIMALS}: "
+            "frequencies collapse into each other",
+        )
+    return grid
+
+
+# --------------------------------------------------------------------------- the solver
+def check_steps_per_period(scene: Scene) -> None:
+    """``steps_per_period`` at most :data:`MAX_STEPS_PER_PERIOD`."""
+    steps = scene.solver.steps_per_period
+    if steps > MAX_STEPS_PER_PERIOD:
+        raise ConfigError(
+            scene.source,
+            "solver.steps_per_period",
+            f"{steps} is more than the largest {MAX_STEPS_PER_PERIOD} (2**20): a run keeps "
+            "tables of steps_per_period floats",
+        )
+
+
+def check_harmonics(scene: Scene) -> None:
+    """Every lock-in harmonic k below the Nyquist order: ``k < steps_per_period / 2``.
+
+    The lock-in reads the sampled N/F_s with tables of ``steps_per_period`` entries: a
+    harmonic at or above ``N/2`` aliases onto a lower one (``k = N/2`` reads only the
+    sampled cosine) and reads the tables out of their range from ``k = N``.
+    """
+    steps = scene.solver.steps_per_period
+    highest = max(scene.lockin.harmonics)
+    if 2 * highest >= steps:
+        # the key further from the default scene's (N = 256, harmonics up to 2)
+        coarser = DEFAULT_SOLVER.steps_per_period / steps
+        higher = highest / DEFAULT_HARMONICS
+        raise ConfigError(
+            scene.source,
+            "solver.steps_per_period" if coarser > higher else "lockin.harmonics",
+            f"harmonic {highest} is not below the Nyquist order steps_per_period / 2 = "
+            f"{steps / 2:g} (raise solver.steps_per_period above {2 * highest})",
+        )
+
+
+def check_stability_limit(scene: Scene) -> float:
+    """The stability limit (:func:`hertzsweep.core.model.stability_limit`), which
+    ``steps_per_period`` must exceed: the check the drivers make, as a ConfigError on
+    ``solver.steps_per_period``. A limit beyond :data:`MAX_STEPS_PER_PERIOD` names
+    ``excitation.sigma`` or ``sweep.start``, whichever factor of ``limit = pi
+    omega_max / w_min`` lies further above the default scene's."""
+    limit = stability_limit(scene)
+    if not limit < MAX_STEPS_PER_PERIOD:
+        sigma = max(scene.excitation.sigma)
+        om = omega_max(sigma, scene.damping.ratio)
+        w_min = float(scene.sweep.frequency_ratios[0])
+        default_om = omega_max(max(ExcitationConfig().sigma), DampingConfig().ratio)
+        key = "excitation.sigma" if om / default_om > DEFAULT_SWEEP.start / w_min else "sweep.start"
+        raise ConfigError(
+            scene.source,
+            key,
+            f"the stability limit {limit:.3g} steps per period (sigma = {sigma:g} at w = "
+            f"{w_min:g}) is beyond the largest steps_per_period {MAX_STEPS_PER_PERIOD}",
+        )
+    reason = stability_reason(scene)
+    if reason is not None:
+        raise ConfigError(scene.source, "solver.steps_per_period", reason)
+    return limit
+
+
+# --------------------------------------------------------------------------- budgets
+def periods_per_dwell(sweep: SweepConfig) -> int:
+    """Periods integrated at one frequency, at most: settling (``max_settle_periods`` for
+    ``"auto"``) then measuring."""
+    settle = sweep.max_settle_periods if sweep.settle_periods is None else sweep.settle_periods
+    return settle + sweep.measure_periods
+
+
+def max_steps(scene: Scene) -> int:
+    """The budget of integration steps: ``solver.max_steps``, else the default."""
+    return scene.solver.max_steps or DEFAULT_MAX_STEPS
+
+
+def _largest_factor(factors: dict[str, tuple[float, float]]) -> str:
+    """The key whose factor ``(value, default)`` is furthest above its default."""
+    return max(factors, key=lambda key: factors[key][0] / factors[key][1])
+
+
+def check_steps(scene: Scene, points: int) -> int:
+    """The integration steps of the run, at most: frequencies x trajectories x periods
+    per dwell x ``steps_per_period`` (exact integers); refused beyond :func:`max_steps`,
+    naming the factor furthest above the default scene's (its key)."""
+    sweep = scene.sweep
+    trajectories = len(sweep.directions) * len(scene.excitation.sigma)
+    periods = periods_per_dwell(sweep)
+    steps_per_period = scene.solver.steps_per_period
+    total = points * trajectories * periods * steps_per_period
+    budget = max_steps(scene)
+    if total > budget:
+        settle_key, settle, settle_default = (
+            ("sweep.max_settle_periods", sweep.max_settle_periods, DEFAULT_SWEEP.max_settle_periods)
+            if sweep.settle_periods is None
+            else ("sweep.settle_periods", sweep.settle_periods, DEFAULT_SWEEP.settle_periods)
+        )
+        key = _largest_factor(
+            {
+                grid_key(scene.sweep): (points, DEFAULT_POINTS),
+                "excitation.sigma": (trajectories, DEFAULT_TRAJECTORIES),
+                settle_key: (settle, settle_default or 1),
+                "sweep.measure_periods": (sweep.measure_periods, DEFAULT_SWEEP.measure_periods),
+                "solver.steps_per_period": (steps_per_period, DEFAULT_SOLVER.steps_per_period),
+            },
+        )
+        raise ConfigError(
+            scene.source,
+            key,
+            f"the run would take {total:.3g} integration steps ({points} frequencies x "
+            f"{trajectories} trajectories x {periods} periods x {steps_per_period} steps), "
+            f"beyond the budget solver.max_steps = {budget:.3g} (about "
+            f"{_duration(budget)} at 9 ns a step); raise solver.max_steps to allow it",
+        )
+    return total
+
+
+def result_bytes(scene: Scene, points: int) -> int:
+    """An estimate of the memory of a run's results: per dwell and trajectory, amplitude
+    and phase of every harmonic, the scalar readings and the flags, held
+    :data:`RESULT_COPIES` times; the grid's coordinates; the per-period tables."""
+    trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
+    harmonics = len(scene.lockin.harmonics)
+    per_dwell = (2 * harmonics + SCALAR_READINGS) * FLOAT + FLAGS
+    tables = 2 * scene.solver.steps_per_period * FLOAT  # sin and cos of one period
+    return RESULT_COPIES * (trajectories * points * per_dwell + 3 * points * FLOAT) + tables
+
+
+def check_memory(scene: Scene, points: int) -> int:
+    """:func:`result_bytes`, refused beyond :data:`MEMORY_BUDGET` (naming the factor
+    furthest above the default scene's: the grid, the sigma list or the harmonics)."""
+    memory = result_bytes(scene, points)
+    if memory > MEMORY_BUDGET:
+        trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
+        key = _largest_factor(
+            {
+                grid_key(scene.sweep): (points, DEFAULT_POINTS),
+                "excitation.sigma": (trajectories, DEFAULT_TRAJECTORIES),
+                "lockin.harmonics": (len(scene.lockin.harmonics), DEFAULT_HARMONICS),
+            },
+        )
+        raise ConfigError(
+            scene.source,
+            key,
+            f"the results would take {format_size(memory)} ({points} frequencies x {trajectories} "
+            f"trajectories x {len(scene.lockin.harmonics)} harmonics), beyond the memory "
+            f"budget {format_size(MEMORY_BUDGET)}",
+        )
+    return memory
+
+
+def format_size(nbytes: float) -> str:
+    """A memory size in B, kiB, MiB or GiB."""
+    for unit, scale in (("GiB", 2**30), ("MiB", 2**20), ("kiB", 2**10)):
+        if nbytes >= scale:
+            return f"{nbytes / scale:.3g} {unit}"
+    return f"{nbytes:.0f} B"
+
+
+def _duration(steps: float, seconds_per_step: float = 9e-9) -> str:
+    seconds = steps * seconds_per_step
+    if seconds < 120:
+        return f"{seconds:.2g} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.0f} minutes"
+    if seconds < 86400 * 3:
+        return f"{seconds / 3600:.0f} hours"
+    return f"{seconds / 86400:.3g} days"
+
+
+# --------------------------------------------------------------------------- preflight
+def preflight(scene: Scene) -> Figures:
+    """Every check a run of the scene makes, before any work (the module docstring).
+
+    Returns
+    -------
+    Figures
+        The grid, the trajectories, the steps and memory against their budgets, the
+        stability limit and margin.
+
+    Raises
+    ------
+    ConfigError
+        The first check that fails, naming the file (the rig's file for the rig's
+        constants) and the key.
+    """
+    check_rig(scene.rig, rig_source(scene))
+    grid = check_grid(scene)
+    check_steps_per_period(scene)
+    limit = check_stability_limit(scene)
+    check_harmonics(scene)
+    steps = check_steps(scene, grid.size)
+    memory = check_memory(scene, grid.size)
+    return Figures(
+        points=int(grid.size),
+        trajectories=len(scene.sweep.directions) * len(scene.excitation.sigma),
+        periods_per_dwell=periods_per_dwell(scene.sweep),
+        steps=steps,
+        max_steps=max_steps(scene),
+        memory=memory,
+        memory_budget=MEMORY_BUDGET,
+        stability_limit=limit,
+        stability_margin=scene.solver.steps_per_period / limit,
+    )
+
+
+def load_checked_scene(path: str | Path, overrides: Iterable[str] = ()) -> tuple[Scene, Figures]:
+    """Read a scene with its overrides (:func:`hertzsweep.core.config.load_scene`) and
+    run :func:`preflight` on it; a failing check whose key an override gave is reported
+    under ``--set``."""
+    overrides = tuple(overrides)
+    scene = load_scene(path, overrides)
+    overridden = {parse_override(text)[0] for text in overrides}
+    try:
+        figures = preflight(scene)
+    except ConfigError as exc:
+        raise from_command_line(exc, overridden) from None
+    return scene, figures
+
+
+# --------------------------------------------------------------------------- trace
+def record_bytes(scene: Scene, samples: int) -> int:
+    """An estimate of the memory of a trace of ``samples`` samples per sigma: the record
+    (q, q', N/F_s, contact: 4 floats a sample), the dataset's contact flags (1 byte) and
+    the writer's contiguous copy of one column (1 float) per sigma and sample; the time
+    coordinates (2 floats), the spectrum's transform buffer (1 float) and, per sigma, the
+    spectrum (half a float) per sample."""
+    sigma = len(scene.excitation.sigma)
+    per_sample = sigma * (4 * FLOAT + 1 + FLOAT + FLOAT // 2) + 3 * FLOAT
+    return samples * per_sample + sigma * FLOAT
+
+
+def check_record(
+    scene: Scene,
+    periods: int,
+    samples_per_period: int | None = None,
+    source: str = "trace",
+) -> int:
+    """The memory of ``hertzsweep trace``'s record of ``periods`` periods
+    (:func:`record_bytes`), refused beyond :data:`MEMORY_BUDGET`, and its integration
+    steps, refused beyond :func:`max_steps`; before anything is allocated.
+
+    The trace reaches its frequency through at most every grid point, then dwells there
+    and records: at most ``sigma x ((points + 1) x periods_per_dwell + periods) x
+    steps_per_period`` steps. A ``periods`` or ``samples_per_period`` the trace refuses
+    anyway (not a whole number >= 1, not a divisor) is left to it.
+
+    Returns the memory estimate [bytes].
+    """
+    if isinstance(periods, bool) or not isinstance(periods, int | np.integer) or periods < 1:
+        return 0
+    steps_per_period = scene.solver.steps_per_period
+    samples = steps_per_period
+    if (
+        isinstance(samples_per_period, int | np.integer)
+        and not isinstance(samples_per_period, bool)
+        and 1 <= samples_per_period <= steps_per_period
+        and steps_per_period % samples_per_period == 0
+    ):
+        samples = int(samples_per_period)
+    memory = record_bytes(scene, int(periods) * samples)
+    if memory > MEMORY_BUDGET:
+        raise ConfigError(
+            source,
+            "--periods",
+            f"a record of {periods} periods x {samples} samples x "
+            f"{len(scene.excitation.sigma)} sigma would take {format_size(memory)}, beyond the "
+            f"memory budget {format_size(MEMORY_BUDGET)}",
+        )
+    sigma = len(scene.excitation.sigma)
+    points = int(grid_count(scene.sweep))
+    dwells = sigma * (points + 1) * periods_per_dwell(scene.sweep) * steps_per_period
+    recorded = sigma * int(periods) * steps_per_period
+    budget = max_steps(scene)
+    if dwells + recorded > budget:
+        where, key = (
+            (source, "--periods") if recorded > dwells else (scene.source, "solver.max_steps")
+        )
+        raise ConfigError(
+            where,
+            key,
+            f"the trace would take {dwells + recorded:.3g} integration steps ({recorded:.3g} "
+            f"of them recording), beyond the budget solver.max_steps = {budget:.3g} (about "
+            f"{_duration(budget)} at 9 ns a step)",
+        )
+    return memory
+
+
+__all__ = [
+    "DEFAULT_MAX_STEPS",
+    "MAX_POINTS",
+    "MAX_STEPS_PER_PERIOD",
+    "MEMORY_BUDGET",
+    "Figures",
+    "check_grid",
+    "check_record",
+    "check_rig",
+    "check_harmonics",
+    "check_steps_per_period",
+    "check_stability_limit",
+    "check_steps",
+    "format_size",
+    "grid_count",
+    "load_checked_scene",
+    "preflight",
+    "rig_source",
+]
