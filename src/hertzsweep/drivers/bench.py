@@ -10,9 +10,12 @@ Every ratio is measured in the same run, never typed in:
   recurrence vectorised across 16 trajectories (the throughput floor of the CPU's vector
   square root);
 - wall time of a 121-point up + down sweep (w 0.90 to 1.05, 256 steps per period,
-  300 settle + 20 measured periods, sigma = 1 %), and the same sweep with
-  ``scipy.integrate.solve_ivp`` (DOP853, the loosest tolerance for which H1 agrees with a
-  tight reference to 1e-4), measured on a few frequencies and extrapolated;
+  300 settle + 20 measured periods, sigma = 1 %);
+- time per dwell at equal accuracy (:func:`equal_accuracy`): one dwell (:class:`Dwell`)
+  integrated by hertzsweep's central difference, the same combined by Richardson, a
+  fixed-step RK4 written here, scipy's ``solve_ivp`` (DOP853, LSODA) and numbalsoda's
+  DOP853 (when installed), each at the loosest setting of its ladder whose H1 is within
+  1e-4, and within 1e-6, of a converged reference;
 - shooting-accelerated vs settled sweep (steps and time, the same jumps).
 """
 
@@ -20,21 +23,22 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import replace
+from collections import namedtuple
+from dataclasses import dataclass, replace
+from functools import lru_cache, partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numba import njit
-from scipy.integrate import solve_ivp
 
 from ..core.config import Scene, scene_from_dict
-from ..core.lockin import demodulate
 from ..core.model import check_stability
+from ..errors import HertzsweepError
 from ..kernels import CACHE, integrate, scheme
 from ..kernels.laws import make_law
 from ..kernels.scheme import fma
-from .oscillator import drive
+from .oscillator import Oscillator, drive
 from .sweep import run_sweep
 
 PAPER_RIG = {
@@ -204,63 +208,426 @@ def sweep_wall_time(scene: Scene) -> tuple[float, int]:
     return _best(lambda: run_sweep(scene), 2), steps
 
 
-def _ivp_dwell(w, sigma, zeta, y0, periods, measure, rtol):
-    """solve_ivp over ``periods`` periods; H1 of N/F_s over the last ``measure``."""
+# --------------------------------------------------------------------------- equal accuracy
+@dataclass(frozen=True)
+class Dwell:
+    """One dwell, the same for every competitor: eq. (8)/(11) in q,
 
-    def rhs(t, y):
-        d = 1.0 + 2.0 * y[0] / 3.0
-        restoring = d * np.sqrt(d) if d > 0 else 0.0
-        return [y[1], 1.0 + sigma * np.sin(w * t) - restoring - 2.0 * zeta * y[1]]
+        q'' + f_d + [H(d) d]^(3/2) = 1 + sigma sin(w tau),   d = 1 + 2 q / 3,
 
-    period = 2.0 * np.pi / w
-    samples = 256
-    t_eval = period * (periods - measure + np.arange(measure * samples) / samples)
-    sol = solve_ivp(
-        rhs,
-        (0.0, periods * period),
-        y0,
-        method="DOP853",
-        rtol=rtol,
-        atol=rtol * 1e-2,
-        t_eval=t_eval,
-    )
-    q, v = sol.y
-    d = np.maximum(1.0 + 2.0 * q / 3.0, 0.0)
-    force = d * np.sqrt(d) + 2.0 * zeta * v
-    _, amplitude, _ = demodulate(force, [1], samples)
-    return amplitude[0], sol.y[:, -1]
+    ``f_d = 2 zeta q'`` (``law = "viscous"``) or ``2 zeta d^(3/2) H(d) q'`` (``"contact"``,
+    n = 3/2), from rest (q = 0, q' = 0, excitation phase 0) over ``settle`` then ``measure``
+    periods at w. Its H1 is the amplitude of the first harmonic of ``N/F_s = [H(d) d]^(3/2)
+    + f_d`` over the measured periods, ``2 |integral (N/F_s - 1) exp(i w tau) dtau| / L`` (L:
+    their length in tau).
+    """
+
+    label: str
+    sigma: float
+    zeta: float
+    law: str
+    frequency_ratio: float
+    settle: int = 300
+    measure: int = 20
+
+    @property
+    def period(self) -> float:
+        return 2.0 * math.pi / self.frequency_ratio
+
+    @property
+    def times(self) -> tuple[float, float]:
+        """tau at the end of the settling and at the end of the dwell."""
+        return self.settle * self.period, (self.settle + self.measure) * self.period
+
+    def parameters(self) -> np.ndarray:
+        """``(sigma, w, 2 zeta, contact)``, what the competitors' right-hand sides read."""
+        contact = 1.0 if self.law == "contact" else 0.0
+        return np.array([self.sigma, self.frequency_ratio, 2.0 * self.zeta, contact])
+
+    def h1(self, cos_integral: float, sin_integral: float) -> float:
+        """H1 from ``integral (N/F_s - 1) cos(w tau)``, ``... sin(w tau)`` over the
+        measured periods."""
+        return 2.0 * math.hypot(cos_integral, sin_integral) / (self.measure * self.period)
+
+    def scene(self, steps_per_period: int) -> Scene:
+        """The one-frequency scene of hertzsweep's own drivers at N steps per period."""
+        w = self.frequency_ratio
+        return scene_from_dict(
+            {
+                "rig": dict(PAPER_RIG),
+                "damping": {"ratio": self.zeta, "law": self.law, "exponent": 1.5},
+                "excitation": {"sigma": [self.sigma]},
+                "sweep": {
+                    "start": w,
+                    "stop": w,
+                    "directions": ["up"],
+                    "settle_periods": self.settle,
+                    "measure_periods": self.measure,
+                },
+                "solver": {"steps_per_period": int(steps_per_period)},
+                "lockin": {"harmonics": [1]},
+            },
+            source="<bench>",
+        )
 
 
-def solve_ivp_comparison(scene: Scene, frequencies=(0.93, 0.97, 1.01)) -> dict[str, Any]:
-    """Per-dwell cost of solve_ivp (DOP853) at the loosest tolerance meeting 1e-4 in H1,
-    extrapolated to the scene's whole sweep."""
-    sigma, zeta = scene.excitation.sigma[0], scene.damping.ratio
-    settle, measure = scene.sweep.settle_periods or 300, scene.sweep.measure_periods
-    w0 = frequencies[len(frequencies) // 2]
-    start = [0.0, 0.0]
-    # the tolerance is checked on the very dwell that is timed (settle + measure periods)
-    periods = settle + measure
-    reference, _ = _ivp_dwell(w0, sigma, zeta, start, periods, measure, 1e-12)
-    chosen = None
-    for rtol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10):
-        h1, _ = _ivp_dwell(w0, sigma, zeta, start, periods, measure, rtol)
-        if abs(h1 - reference) <= 1e-4 * abs(reference):
-            chosen = rtol
-            break
-    chosen = chosen or 1e-10
-    times = []
-    for w in frequencies:
-        t0 = time.perf_counter()
-        _ivp_dwell(w, sigma, zeta, start, settle + measure, measure, chosen)
-        times.append(time.perf_counter() - t0)
-    dwells = len(scene.sweep.directions) * scene.sweep.frequency_ratios.size
+DWELLS = (
+    Dwell("sigma 1 %, w 0.975", 0.01, 0.0045, "viscous", 0.975),
+    Dwell("sigma 1 %, w 0.95", 0.01, 0.0045, "viscous", 0.95),
+    Dwell("sigma 7.8 %, n 3/2, w 0.95", 0.078, 0.01, "contact", 0.95),
+)
+"""The dwells compared: the no-loss scene (sigma = 1 %, zeta = 0.45 %, viscous) on its
+lower branch near resonance and below it, and the vibro-impact scene (sigma = 7.8 %,
+zeta = 1 %, contact damping n = 3/2) at w = 0.95, where a dwell from rest loses contact
+over 21 % of the period (from rest at w <= 0.9 it stays on the branch without loss)."""
+TARGETS = (1e-4, 1e-6)  # |H1 - H1_ref|, in units of F_s
+REFERENCE_RTOL = 1e-13  # DOP853's rtol = atol for the reference
+RICHARDSON_CHECK = 4096  # the reference is checked against central difference N and 2N
+DENSE_SAMPLES = 4096  # per period, the reference's second H1 (DFT of its dense output)
+RTOL_LADDER = tuple(m * 10.0**-e for e in range(3, 11) for m in (1.0, 0.3))[:-1]
+
+
+def _half_octaves(first: int, last: int) -> tuple[int, ...]:
+    """Steps per period ``2^k`` and ``3 2^(k-1)`` from ``first`` to ``last``: 16, 24, 32, 48..."""
+    return tuple(n for n in sorted(b << k for b in (2, 3) for k in range(16)) if first <= n <= last)
+
+
+RK4_LADDER = _half_octaves(16, 1024)
+CD_LADDER = _half_octaves(64, 16384)
+RICHARDSON_LADDER = _half_octaves(16, 1024)  # N of the pair N, 2N
+
+
+@njit(cache=CACHE, inline="always")
+def _excess(q, v, twozeta, contact):
+    """``N/F_s - 1`` at ``(q, q')``: the competitors' one copy of the model (n = 3/2 for
+    the contact law; the kernels' own is :mod:`~hertzsweep.kernels.laws`)."""
+    d = 1.0 + q * (2.0 / 3.0)
+    root = math.sqrt(d) if d > 0.0 else 0.0
+    c = twozeta * d * root if contact else twozeta
+    return d * root - 1.0 + c * v
+
+
+@njit(cache=CACHE)
+def _excess_many(q, v, twozeta, contact):
+    """:func:`_excess` of every sample."""
+    out = np.empty_like(q)
+    for i in range(q.shape[0]):
+        out[i] = _excess(q[i], v[i], twozeta, contact)
+    return out
+
+
+@njit(cache=CACHE)
+def _ivp_rhs(tau, y, p):
+    """``y' `` for scipy: ``(q, q')``, and the two quadrature states ``integral (N/F_s - 1)
+    cos(w tau)``, ``... sin(w tau)`` when ``y`` has four components."""
+    x = _excess(y[0], y[1], p[2], p[3] > 0.5)
+    phase = p[1] * tau
+    out = np.empty(y.shape[0])
+    out[0] = y[1]
+    out[1] = p[0] * math.sin(phase) - x
+    if y.shape[0] > 2:
+        out[2] = x * math.cos(phase)
+        out[3] = x * math.sin(phase)
+    return out
+
+
+def _soda_rhs(tau, u, du, p):
+    """:func:`_ivp_rhs` as numbalsoda's C callback (``p[4] = 1``: four states)."""
+    x = _excess(u[0], u[1], p[2], p[3] > 0.5)
+    phase = p[1] * tau
+    du[0] = u[1]
+    du[1] = p[0] * math.sin(phase) - x
+    if p[4] > 0.5:
+        du[2] = x * math.cos(phase)
+        du[3] = x * math.sin(phase)
+
+
+@njit(cache=CACHE, inline="always")
+def _rk4_step(q, v, f0, f1, f2, h, twozeta, contact):
+    """One classical RK4 step, loads ``sigma sin(w tau)`` at its start, middle and end:
+    ``(q, q', x1, x2 + x3, x4)``, the ``x`` being ``N/F_s - 1`` at the four stages."""
+    half = 0.5 * h
+    x1 = _excess(q, v, twozeta, contact)
+    a1 = f0 - x1
+    q2, v2 = q + half * v, v + half * a1
+    x2 = _excess(q2, v2, twozeta, contact)
+    a2 = f1 - x2
+    q3, v3 = q + half * v2, v + half * a2
+    x3 = _excess(q3, v3, twozeta, contact)
+    a3 = f1 - x3
+    q4, v4 = q + h * v3, v + h * a3
+    x4 = _excess(q4, v4, twozeta, contact)
+    a4 = f2 - x4
+    sixth = h / 6.0
+    q_next = q + sixth * (v + 2.0 * (v2 + v3) + v4)
+    return q_next, v + sixth * (a1 + 2.0 * (a2 + a3) + a4), x1, x2 + x3, x4
+
+
+@njit(cache=CACHE, error_model="numpy")
+def _rk4_periods(y, p, tables, h, periods, sums):
+    """Whole periods of fixed-step RK4 in place on ``y = (q, q')``; ``tables`` float[2, 2M+1]
+    holds ``sin``, ``cos`` of the phase at every half step of a period of M steps. When
+    ``sums`` (float[2]) is not empty, the quadrature states ``integral (N/F_s - 1) cos``,
+    ``... sin`` are integrated by the same RK4 stages (Simpson's weights) and added to it."""
+    q, v = y[0], y[1]
+    sigma, twozeta, contact = p[0], p[2], p[3] > 0.5
+    sin_t, cos_t = tables[0], tables[1]
+    read = sums.shape[0] > 0
+    cos_sum = 0.0
+    sin_sum = 0.0
+    for _ in range(periods):
+        for j in range(0, sin_t.shape[0] - 1, 2):
+            s0, s1, s2 = sin_t[j], sin_t[j + 1], sin_t[j + 2]
+            f0, f1, f2 = sigma * s0, sigma * s1, sigma * s2
+            q, v, x1, x23, x4 = _rk4_step(q, v, f0, f1, f2, h, twozeta, contact)
+            if read:
+                cos_sum += x1 * cos_t[j] + 2.0 * x23 * cos_t[j + 1] + x4 * cos_t[j + 2]
+                sin_sum += x1 * s0 + 2.0 * x23 * s1 + x4 * s2
+    y[0], y[1] = q, v
+    if read:
+        sums[0] += cos_sum * h / 6.0
+        sums[1] += sin_sum * h / 6.0
+
+
+# the H1 of a dwell by each competitor at one setting
+@lru_cache(maxsize=64)
+def _oscillator(dwell: Dwell, steps_per_period: int) -> Oscillator:
+    return Oscillator(dwell.scene(steps_per_period), dwell.sigma)
+
+
+def cd_h1(dwell: Dwell, steps_per_period: int) -> float:
+    """hertzsweep's central difference at N steps per period, through its own driver
+    (:meth:`Oscillator.dwell`): H1 is the kernels' lock-in over the measured periods."""
+    oscillator = _oscillator(dwell, int(steps_per_period))
+    w = dwell.frequency_ratio
+    _, reading, _ = oscillator.dwell(oscillator.from_velocity(0.0, 0.0, w), w)
+    return float(reading.amplitude[0])
+
+
+def richardson_h1(dwell: Dwell, steps_per_period: int) -> float:
+    """Central difference at N and 2N, combined ``(4 H1(2N) - H1(N)) / 3`` (the scheme is
+    second order): two dwells' cost."""
+    coarse = cd_h1(dwell, steps_per_period)
+    return (4.0 * cd_h1(dwell, 2 * steps_per_period) - coarse) / 3.0
+
+
+def rk4_h1(dwell: Dwell, steps_per_period: int) -> float:
+    """Fixed-step RK4 at M steps per period (:func:`_rk4_periods`); H1 from the quadrature
+    states integrated by the same steps over the measured periods."""
+    m = int(steps_per_period)
+    phase = math.pi * np.arange(2 * m + 1) / m
+    tables = np.stack([np.sin(phase), np.cos(phase)])
+    h = dwell.period / m
+    y, sums, p = np.zeros(2), np.zeros(2), dwell.parameters()
+    _rk4_periods(y, p, tables, h, dwell.settle, np.zeros(0))
+    _rk4_periods(y, p, tables, h, dwell.measure, sums)
+    return dwell.h1(sums[0], sums[1])
+
+
+def _ivp_measured(dwell: Dwell, method: str, rtol: float, dense: bool = False):
+    """``solve_ivp`` over the dwell (rtol = atol): the settling periods with ``(q, q')``,
+    then the measured ones with the two quadrature states added (from 0). Returns the
+    second solution, or None if either failed."""
+    from scipy.integrate import solve_ivp
+
+    settle_end, end = dwell.times
+    options = {"method": method, "rtol": rtol, "atol": rtol, "args": (dwell.parameters(),)}
+    first = solve_ivp(_ivp_rhs, (0.0, settle_end), np.zeros(2), **options)
+    if first.status != 0:
+        return None
+    start = np.concatenate([first.y[:, -1], np.zeros(2)])
+    second = solve_ivp(_ivp_rhs, (settle_end, end), start, dense_output=dense, **options)
+    return second if second.status == 0 else None
+
+
+def ivp_h1(dwell: Dwell, rtol: float, method: str = "DOP853") -> float:
+    """scipy's ``solve_ivp`` (``method``) at ``rtol`` (= atol); H1 from the quadrature
+    states it integrates under its own error control."""
+    solution = _ivp_measured(dwell, method, rtol)
+    return math.nan if solution is None else dwell.h1(*solution.y[2:, -1])
+
+
+@lru_cache(maxsize=1)
+def _numbalsoda() -> tuple[Any, int] | None:
+    """numbalsoda's ``dop853`` and the address of :func:`_soda_rhs` compiled as its
+    callback; None when numbalsoda is not installed."""
+    try:
+        from numbalsoda import dop853
+    except ImportError:
+        return None
+    from numba import cfunc, types
+
+    pointer = types.CPointer(types.double)
+    signature = types.void(types.double, pointer, pointer, pointer)
+    return dop853, cfunc(signature, cache=CACHE)(_soda_rhs).address
+
+
+def numbalsoda_h1(dwell: Dwell, rtol: float) -> float:
+    """numbalsoda's DOP853 (the Hairer-Wanner code, compiled; callback compiled by numba)
+    at ``rtol`` (= atol), settling then measured periods with the quadrature states, as
+    :func:`ivp_h1`."""
+    dop853, address = _numbalsoda()
+    settle_end, end = dwell.times
+    p = np.append(dwell.parameters(), 0.0)
+    options = {"data": p, "rtol": rtol, "atol": rtol, "mxstep": 10**9}
+    first, ok = dop853(address, np.zeros(2), np.array([0.0, settle_end]), **options)
+    p[4] = 1.0
+    start = np.array([first[-1, 0], first[-1, 1], 0.0, 0.0])
+    second, ok_too = dop853(address, start, np.array([settle_end, end]), **options)
+    return dwell.h1(second[-1, 2], second[-1, 3]) if ok and ok_too else math.nan
+
+
+Competitor = namedtuple("Competitor", ["name", "label", "ladder", "h1"])
+"""A method compared: its name, ``label(setting)``, its ladder of settings from the
+loosest, and ``h1(dwell, setting)`` (None: not installed)."""
+
+
+def competitors() -> list[Competitor]:
+    """Every method compared; hertzsweep's central difference first (the ratios' base)."""
+    rtol = "rtol {:.0e}".format
+    soda = numbalsoda_h1 if _numbalsoda() is not None else None
+    return [
+        Competitor("central difference (hertzsweep)", "N {}".format, CD_LADDER, cd_h1),
+        Competitor(
+            "central difference, Richardson N + 2N",
+            lambda n: f"N {n} + {2 * n}",
+            RICHARDSON_LADDER,
+            richardson_h1,
+        ),
+        Competitor("RK4, fixed step (numba)", "{} steps/period".format, RK4_LADDER, rk4_h1),
+        Competitor("solve_ivp DOP853", rtol, RTOL_LADDER, ivp_h1),
+        Competitor("solve_ivp LSODA", rtol, RTOL_LADDER, partial(ivp_h1, method="LSODA")),
+        Competitor("numbalsoda DOP853", rtol, RTOL_LADDER, soda),
+    ]
+
+
+# the reference, the ladders, the table
+def reference(dwell: Dwell) -> dict[str, Any]:
+    """The converged H1 of a dwell: DOP853 (scipy) at rtol = atol = 1e-13 with the
+    quadrature states. Checked two ways: the DFT of its dense output (``DENSE_SAMPLES``
+    per period, the rectangle rule) and hertzsweep's central difference at N = 4096 and
+    8192 combined by Richardson; both differences are returned."""
+    start = time.perf_counter()
+    solution = _ivp_measured(dwell, "DOP853", REFERENCE_RTOL, dense=True)
+    seconds = time.perf_counter() - start
+    h1 = dwell.h1(*solution.y[2:, -1])
+    settle_end, _ = dwell.times
+    samples = dwell.measure * DENSE_SAMPLES
+    tau = settle_end + dwell.period * np.arange(samples) / DENSE_SAMPLES
+    q, v = solution.sol(tau)[:2]
+    p = dwell.parameters()
+    x = _excess_many(q, v, p[2], p[3] > 0.5)
+    phase = dwell.frequency_ratio * tau
+    dense = 2.0 * math.hypot(x @ np.cos(phase), x @ np.sin(phase)) / samples
     return {
-        "rtol": chosen,
-        "seconds_per_dwell": float(np.mean(times)),
-        "extrapolated_sweep_seconds": float(np.mean(times) * dwells),
+        "scene": dwell.label,
+        "h1": h1,
+        "seconds": seconds,
+        "dense_difference": dense - h1,
+        "richardson_steps": RICHARDSON_CHECK,
+        "richardson_difference": richardson_h1(dwell, RICHARDSON_CHECK) - h1,
     }
 
 
+def _loosest(errors: list[float], target: float, walked_all: bool) -> int | None:
+    """Index of the loosest rung that meets ``target`` and whose next tighter rung meets it
+    too (an error that crosses zero between rungs can meet it alone, by luck); the last
+    rung of a ladder counts alone."""
+    for i, error in enumerate(errors):
+        last = i == len(errors) - 1
+        if error <= target and ((not last and errors[i + 1] <= target) or (last and walked_all)):
+            return i
+    return None
+
+
+def _walk(h1, ladder, reference_h1: float, target: float) -> tuple[list[float], list[float]]:
+    """Errors and wall times [s] of the ladder's rungs, from the loosest, until the loosest
+    meeting ``target`` is known (or the ladder ends)."""
+    errors, seconds = [], []
+    for setting in ladder:
+        start = time.perf_counter()
+        try:
+            value = h1(setting)
+        except HertzsweepError:  # beyond a stability limit: the rung fails
+            value = math.nan
+        seconds.append(time.perf_counter() - start)
+        error = abs(value - reference_h1)
+        errors.append(error if math.isfinite(error) else math.inf)
+        if _loosest(errors, target, len(errors) == len(ladder)) is not None:
+            break
+    return errors, seconds
+
+
+def _best_of(run, first: float) -> float:
+    """Best wall time [s] of ``run()`` over a few more calls (more when it is fast) and the
+    ``first`` one already timed."""
+    best = first
+    for _ in range(5 if first < 0.05 else 2 if first < 0.5 else 1):
+        start = time.perf_counter()
+        run()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def compare_dwell(dwell: Dwell, h1_ref: float, targets=TARGETS) -> list[dict[str, Any]]:
+    """One row per competitor and target: the loosest setting meeting the target, its
+    error, the next looser setting and its error, ms per dwell, and the ratio of that
+    time to hertzsweep's central difference at the same target."""
+    rows = []
+    for competitor in competitors():
+        if competitor.h1 is None:
+            rows += [_row(dwell, target, competitor) for target in targets]
+            continue
+        run = partial(competitor.h1, dwell)
+        errors, seconds = _walk(run, competitor.ladder, h1_ref, min(targets))
+        walked_all = len(errors) == len(competitor.ladder)
+        for target in targets:
+            i = _loosest(errors, target, walked_all)
+            row = _row(dwell, target, competitor)
+            if i is not None:
+                row["setting"] = competitor.label(competitor.ladder[i])
+                row["error"] = errors[i]
+                if i > 0:
+                    row["looser"] = competitor.label(competitor.ladder[i - 1])
+                    row["looser_error"] = errors[i - 1]
+                setting = competitor.ladder[i]
+                row["ms_per_dwell"] = 1e3 * _best_of(partial(run, setting), seconds[i])
+            rows.append(row)
+    rows.sort(key=lambda row: targets.index(row["target"]))  # stable: methods in order
+    for row in rows:
+        base = next(r for r in rows if r["target"] == row["target"])["ms_per_dwell"]
+        if row["ms_per_dwell"] is not None and base is not None:
+            row["ratio_to_central_difference"] = row["ms_per_dwell"] / base
+    return rows
+
+
+def _row(dwell: Dwell, target: float, competitor: Competitor) -> dict[str, Any]:
+    missing = "not installed" if competitor.h1 is None else "not met on the ladder"
+    return {
+        "scene": dwell.label,
+        "target": target,
+        "method": competitor.name,
+        "setting": missing,
+        "error": None,
+        "looser": None,
+        "looser_error": None,
+        "ms_per_dwell": None,
+        "ratio_to_central_difference": None,
+    }
+
+
+def equal_accuracy(dwells=DWELLS, targets=TARGETS) -> dict[str, list[dict[str, Any]]]:
+    """The comparison at equal accuracy: each dwell's reference (with its two checks) and,
+    per target, every competitor at its loosest setting meeting it, timed in this run."""
+    references, rows = [], []
+    for dwell in dwells:
+        ref = reference(dwell)
+        references.append(ref)
+        rows += compare_dwell(dwell, ref["h1"], targets)
+    return {"references": references, "rows": rows}
+
+
+# --------------------------------------------------------------------------- shooting
 def compare_with_settle(scene: Scene) -> dict:
     """The same sweeps by long settling and by shooting: cost and agreement.
 
@@ -393,7 +760,9 @@ def sweep_process_times(scene: Scene, repeats: int = 5) -> dict[str, Any]:
 
 
 def run_all(quick: bool = False) -> dict[str, Any]:
-    """Every figure, as a flat dict (what ``hertzsweep bench --json`` prints)."""
+    """Every figure (what ``hertzsweep bench --json`` prints): numbers by name, and the
+    comparison at equal accuracy as two lists of rows, ``equal_accuracy_references`` (one
+    per dwell) and ``equal_accuracy`` (one per dwell, target and competitor)."""
     out: dict[str, Any] = {}
     steps = 2_000_000 if quick else 20_000_000
     out["floor_ns_per_step"] = floor_ns_per_step(steps)
@@ -414,11 +783,6 @@ def run_all(quick: bool = False) -> dict[str, Any]:
     out["sweep_seconds"] = seconds
     out["sweep_steps"] = sweep_steps
     out["sweep_ns_per_step"] = seconds / sweep_steps * 1e9
-    ivp = solve_ivp_comparison(scene, (0.97,) if quick else (0.93, 0.97, 1.01))
-    out["solve_ivp_rtol"] = ivp["rtol"]
-    out["solve_ivp_seconds_per_dwell"] = ivp["seconds_per_dwell"]
-    out["solve_ivp_sweep_seconds_extrapolated"] = ivp["extrapolated_sweep_seconds"]
-    out["speedup_vs_solve_ivp"] = ivp["extrapolated_sweep_seconds"] / seconds
     for key, value in compare_with_settle(bench_scene(16) if quick else scene).items():
         out[f"shooting_{key}"] = value
     if (CONFIGS / "default.toml").is_file():
@@ -426,7 +790,26 @@ def run_all(quick: bool = False) -> dict[str, Any]:
 
         out.update(sweep_process_times(load_scene(CONFIGS / "default.toml")))
     out.update(command_times(runs=2 if quick else 5, study_runs=1 if quick else 3))
+    compared = equal_accuracy(DWELLS[:1] if quick else DWELLS)
+    out["equal_accuracy_references"] = compared["references"]
+    out["equal_accuracy"] = compared["rows"]
     return out
 
 
-__all__ = ["bench_batch", "compare_with_settle", "run_all"]
+__all__ = [
+    "DWELLS",
+    "TARGETS",
+    "Dwell",
+    "bench_batch",
+    "cd_h1",
+    "compare_dwell",
+    "compare_with_settle",
+    "competitors",
+    "equal_accuracy",
+    "ivp_h1",
+    "numbalsoda_h1",
+    "reference",
+    "richardson_h1",
+    "rk4_h1",
+    "run_all",
+]
