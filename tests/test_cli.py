@@ -126,15 +126,15 @@ def test_output_is_atomic(tmp_path, capsys, monkeypatch):
         # lockstep (fixed settling): the sixteen sweeps advance together, 1501 dwells of
         # 3020 periods (~4e10 trajectory-steps, minutes): at 3 s some dwells are done
         ("3000", 3.0),
-        # one sweep at a time ("auto"): about 4 s per sweep, 16 sweeps: at 7 s some but
-        # not all have finished
-        ("auto", 7.0),
+        # one sweep at a time ("auto"): 301 dwells, about 0.8 s per sweep, 16 sweeps:
+        # at 3.5 s (1 s of it start-up) some but not all have finished
+        ("auto", 3.5),
     ],
 )
 def test_sigterm_keeps_finished_work(tmp_path, settle, wait):
-    # A long sweep (8 sigma x 2 directions x 1501 dwells) stopped by SIGTERM: no output
-    # file, the finished dwells in OUT.partial.nc with the sweeps that ran to their end
-    # flagged, exit 143.
+    # A long sweep (8 sigma x 2 directions x 1501 or 301 dwells) stopped by SIGTERM, then
+    # SIGTERM again while it writes what it finished: no output file, the finished dwells
+    # in OUT.partial.nc with the sweeps that ran to their end flagged, exit 143.
     import signal
     import subprocess
     import sys
@@ -153,13 +153,15 @@ def test_sigterm_keeps_finished_work(tmp_path, settle, wait):
         "--set",
         "excitation.sigma=[0.001, 0.002, 0.003, 0.004, 0.005, 0.006, 0.007, 0.008]",
         "--set",
-        "sweep.step=0.0001",
+        f"sweep.step={0.0005 if settle == 'auto' else 0.0001}",
         "--set",
         f"sweep.settle_periods={settle if settle == 'auto' else int(settle)}",
     ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     partial = tmp_path / "long.partial.nc"
     time.sleep(wait)
+    proc.send_signal(signal.SIGTERM)
+    time.sleep(0.05)  # a second SIGTERM, during the partial write: ignored, nothing lost
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 128 + signal.SIGTERM

@@ -18,7 +18,7 @@ lock-in, every ``stride``-th step (``stride = steps_per_period / samples_per_per
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -124,12 +124,20 @@ def resolve_samples_per_period(scene: Scene, samples_per_period: int | None) -> 
     return int(samples_per_period)
 
 
+MAX_FREQUENCY_RATIO = 1e3  # a thousand times f0: far above the ball's own mode (about
+# 25 f0), where this model means nothing, and far below where the step 2 pi / (w N)
+# would underflow the scheme's constants (h^2 below the smallest float near w = 1e150)
+
+
 def check_trace(frequency_ratio: float, periods: int, branch: str) -> None:
-    """Refuse a non-positive frequency, fewer than one period or an unknown branch."""
+    """Refuse a frequency that is not a positive ratio up to :data:`MAX_FREQUENCY_RATIO`,
+    fewer than one period or an unknown branch."""
     w = float(frequency_ratio)
-    if not np.isfinite(w) or w <= 0.0:
+    if not np.isfinite(w) or w <= 0.0 or w > MAX_FREQUENCY_RATIO:
         raise ConfigError(
-            "trace", "--frequency", f"must be a positive frequency ratio w = f/f0, got {w:g}"
+            "trace",
+            "--frequency",
+            f"must be a frequency ratio w = f/f0 in (0, {MAX_FREQUENCY_RATIO:g}], got {w:g}",
         )
     if isinstance(periods, bool) or not isinstance(periods, int | np.integer) or periods < 1:
         raise ConfigError("trace", "--periods", f"must be a whole number >= 1, got {periods!r}")
@@ -229,8 +237,9 @@ def run_trace(
     """
     check_trace(frequency_ratio, periods, branch)
     samples_per_period = resolve_samples_per_period(scene, samples_per_period)
-    check_stability(scene)
     w = float(frequency_ratio)
+    # the lowest frequency the trace runs at: W itself below the grid
+    check_stability(replace(scene, sweep=replace(scene.sweep, start=min(w, scene.sweep.start))))
     periods = int(periods)
     stride = scene.solver.steps_per_period // samples_per_period
     sample_step = scheme.step_size(w, scene.solver.steps_per_period) * stride
