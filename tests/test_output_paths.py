@@ -235,6 +235,27 @@ def test_every_writing_command_checks_its_output(tmp_path, capsys, no_computing)
     assert not list(tmp_path.glob("*.parts")) and hidden(tmp_path) == []
 
 
+def test_plot_checks_its_figure_path_before_drawing(tmp_path, capsys, monkeypatch):
+    # plot's -o is the same checked option: a FIFO or a link with a figure's name, a
+    # folder, an empty path are refused before the dataset is read or drawn
+    import hertzsweep.cli.plot as plot_command
+
+    def no_drawing(*args, **kwargs):
+        raise AssertionError("drew a figure for an output it cannot write")
+
+    monkeypatch.setattr(plot_command, "figure", no_drawing)
+    dataset = tmp_path / "in.nc"
+    shutil.copy(ROOT / "tests" / "data" / "smoke-reference.nc", dataset)
+    os.mkfifo(tmp_path / "fifo.png")
+    (tmp_path / "link.png").symlink_to(tmp_path / "elsewhere.png")
+    for bad in (tmp_path / "fifo.png", tmp_path / "link.png", f"{tmp_path}/new/", ""):
+        code, stdout, err = run_cli(["plot", dataset, "-o", bad], capsys)
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert "Traceback" not in err and stdout == ""
+    assert stat.S_ISFIFO((tmp_path / "fifo.png").lstat().st_mode)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fifo.png", "in.nc", "link.png"]
+
+
 # --------------------------------------------------------------------------- 2. write failures
 def test_disk_full_while_writing_is_one_line(tmp_path, capsys, monkeypatch):
     # the disk fills half way through the low-level write: one line naming the output

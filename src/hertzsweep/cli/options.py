@@ -36,15 +36,21 @@ def _checked_output(ctx: click.Context, param: click.Parameter, value: str | Non
     return value
 
 
-output_option = click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(),
-    metavar="OUT.nc",
-    callback=_checked_output,
-    help="netCDF file to write.",
-)
+def output_option_for(metavar: str, help: str):
+    """The ``-o/--output`` option of a command that writes one file (checked before
+    anything is read: :func:`_checked_output`)."""
+    return click.option(
+        "-o",
+        "--output",
+        required=True,
+        type=click.Path(),
+        metavar=metavar,
+        callback=_checked_output,
+        help=help,
+    )
+
+
+output_option = output_option_for("OUT.nc", "netCDF file to write.")
 set_option = click.option(
     "--set",
     "overrides",

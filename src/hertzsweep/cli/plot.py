@@ -9,6 +9,7 @@ import click
 
 from ..errors import HertzsweepError
 from ..output.kinds import KINDS, figure
+from . import options
 from .group import cli
 from .options import read_dataset
 
@@ -18,13 +19,7 @@ DEFAULT_DPI = 200  # print quality: hertzsweep.output.plot.DPI (not imported: no
 
 @cli.command("plot")
 @click.argument("input_file", metavar="IN.nc", type=click.Path(exists=True, dir_okay=False))
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(dir_okay=False),
-    help="Figure to write: FIG.png, FIG.pdf or FIG.svg.",
-)
+@options.output_option_for("FIG", "Figure to write: FIG.png, FIG.pdf or FIG.svg.")
 @click.option("--view", default=None, help=f"The view (default the first): {VIEW_HELP}.")
 @click.option(
     "--harmonic",
@@ -76,6 +71,7 @@ def plot_command(
     from ..output.plot import UNWRAPPED, WRAPPED, figure_format, phase_convention, write_figure
 
     figure_format(output)
+    options.claim_output(output, (input_file, *([overlay] if overlay else [])))
     ds = read_dataset(input_file)
     extra = read_dataset(overlay) if overlay else None
     try:
