@@ -48,25 +48,26 @@ def omega_max(sigma: float, zeta: float) -> float:
     return force_bound(sigma, zeta) ** (1.0 / 6.0)
 
 
-def stability_limit(scene: Scene) -> float:
+def stability_limit(scene: Scene, lowest: float | None = None) -> float:
     """The fewest steps per period that keep ``h omega_max < 2`` over the scene.
 
     ``h = 2 pi / (w N)``, so ``N > pi omega_max / w``; the worst case is the lowest
-    frequency of the grid and the largest sigma.
+    frequency run (the grid's, or ``lowest`` when given: a trace below the grid) and the
+    largest sigma.
     """
-    w_min = float(scene.sweep.frequency_ratios.min())
+    w_min = float(scene.sweep.frequency_ratios.min()) if lowest is None else float(lowest)
     om = omega_max(max(scene.excitation.sigma), scene.damping.ratio)
     return math.pi * om / w_min
 
 
-def stability_reason(scene: Scene) -> str | None:
+def stability_reason(scene: Scene, lowest: float | None = None) -> str | None:
     """Why the scene's time step is at or beyond the stability limit (None when it is
     within it): the reason of :func:`check_stability` and of the preflight's check."""
-    limit = stability_limit(scene)
+    limit = stability_limit(scene, lowest)
     steps = scene.solver.steps_per_period
     if steps > limit:
         return None
-    w_min = scene.sweep.frequency_ratios.min()
+    w_min = scene.sweep.frequency_ratios.min() if lowest is None else lowest
     advice = f"use at least {math.floor(limit) + 1}" if math.isfinite(limit) else "none is"
     return (
         f"{steps} is at or below the stability limit {limit:.1f} (h omega_max >= 2 at w = "
@@ -74,10 +75,11 @@ def stability_reason(scene: Scene) -> str | None:
     )
 
 
-def check_stability(scene: Scene) -> None:
-    """Refuse a scene whose time step is at or beyond the stability limit."""
+def check_stability(scene: Scene, lowest: float | None = None) -> None:
+    """Refuse a scene whose time step is at or beyond the stability limit (at the lowest
+    frequency run: the grid's, or ``lowest``)."""
     from ..errors import StabilityError
 
-    reason = stability_reason(scene)
+    reason = stability_reason(scene, lowest)
     if reason is not None:
         raise StabilityError(f"{scene.source}: solver.steps_per_period: {reason}")

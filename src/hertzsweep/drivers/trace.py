@@ -18,7 +18,7 @@ lock-in, every ``stride``-th step (``stride = steps_per_period / samples_per_per
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -238,8 +238,7 @@ def run_trace(
     check_trace(frequency_ratio, periods, branch)
     samples_per_period = resolve_samples_per_period(scene, samples_per_period)
     w = float(frequency_ratio)
-    # the lowest frequency the trace runs at: W itself below the grid
-    check_stability(replace(scene, sweep=replace(scene.sweep, start=min(w, scene.sweep.start))))
+    check_stability(scene, lowest=min(w, float(scene.sweep.frequency_ratios.min())))
     periods = int(periods)
     stride = scene.solver.steps_per_period // samples_per_period
     sample_step = scheme.step_size(w, scene.solver.steps_per_period) * stride
