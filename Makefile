@@ -26,6 +26,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test]'
+	$(BIN)/python -m hertzsweep.drivers.warm
 	touch $(STAMP)
 
 install: $(STAMP)  ## create .venv and install hertzsweep with the test extras

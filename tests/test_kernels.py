@@ -248,3 +248,13 @@ def test_no_writable_cache_folder_at_all_is_one_warning_line(tmp_path):
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("hertzsweep: warning: no writable folder")
     assert float(done.stdout) < 0.5
+
+
+def test_the_install_warm_up_covers_every_law_type():
+    """`make install` compiles the kernels ahead (hertzsweep.drivers.warm): one setting
+    per law type, or a law would still compile on its first run."""
+    from hertzsweep.drivers.warm import LAW_SETTINGS
+    from hertzsweep.kernels.laws import LAWS, make_law
+
+    covered = [type(make_law(law, 0.01, exponent)) for law, exponent in LAW_SETTINGS]
+    assert sorted(covered, key=LAWS.index) == list(LAWS)

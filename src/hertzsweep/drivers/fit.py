@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -157,16 +157,8 @@ class SweepMeasurements:
     def first_harmonic(self) -> SweepMeasurements:
         """The readings of harmonic 1 only (the ones a fit uses)."""
         keep = self.harmonic == 1
-        return replace(
-            self,
-            direction=self.direction[keep],
-            sigma=self.sigma[keep],
-            frequency=self.frequency[keep],
-            harmonic=self.harmonic[keep],
-            amplitude=self.amplitude[keep],
-            phase=self.phase[keep],
-            reference=None if self.reference is None else self.reference[keep],
-        )
+        arrays = (f.name for f in fields(self) if isinstance(getattr(self, f.name), np.ndarray))
+        return replace(self, **{name: getattr(self, name)[keep] for name in arrays})
 
 
 @dataclass(frozen=True)

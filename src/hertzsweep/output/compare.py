@@ -15,7 +15,7 @@ import functools
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -210,14 +210,10 @@ class VariableResult:
         if self.worst is None:
             out["worst"] = None
         else:
-            w = self.worst
-            out["worst"] = {
-                "coords": {k: _json_value(v) for k, v in w.coords.items()},
-                "run": _json_value(w.run),
-                "reference": _json_value(w.reference),
-                "difference": _json_value(w.difference),
-                "tolerance": {**self.rule.as_dict(), "allowed": _json_value(w.allowed)},
-            }
+            worst = {"coords": {k: _json_value(v) for k, v in self.worst.coords.items()}}
+            worst |= {k: _json_value(v) for k, v in asdict(self.worst).items() if k != "coords"}
+            worst["tolerance"] = {**self.rule.as_dict(), "allowed": worst.pop("allowed")}
+            out["worst"] = worst
         if self.note:
             out["note"] = self.note
         return out

@@ -43,7 +43,7 @@ from ..drivers.fit import (
     SweepMeasurements,
 )
 from ..errors import ConfigError, HertzsweepError, MeasurementError
-from .dataset import CONVENTIONS, LABEL, attrs, global_attributes, history_line, provenance
+from .dataset import CONVENTIONS, attrs, global_attributes, history_line, provenance
 
 DIRECTIONS = ("up", "down")
 MAX_MEASUREMENT_BYTES = 64 * 2**20  # a rig's CSV of sweeps or jumps is kilobytes; 64 MiB
@@ -55,52 +55,12 @@ OPTIONAL_COLUMNS = {"sweep": ("harmonic", "reference"), "jumps": ("reference",)}
 KIND = "measured"
 FIT_KIND = "fit"
 
-# name -> (long_name, units) of the variables only these datasets have (the shared ones
-# come from hertzsweep.output.dataset.ATTRIBUTES)
-MEASURED_ATTRIBUTES: dict[str, tuple[str, str | None]] = {
-    "reference": ("where the measured values come from", LABEL),
-    "model_amplitude": ("amplitude of harmonic 1 of N/F_s of the fitted model (peak)", "1"),
-    "model_phase": ("phase lag of harmonic 1 of the fitted model", "degree"),
-    "residual_amplitude": ("model amplitude over measured amplitude, minus 1", "1"),
-    "residual_phase": ("model phase minus measured phase, wrapped to [-180, 180)", "degree"),
-    "model_jump_frequency": ("jump frequency of the fitted model", "Hz"),
-    "model_jump_frequency_ratio": ("jump frequency ratio of the fitted model", "1"),
-    "residual_jump": ("model jump frequency over measured jump frequency, minus 1", "1"),
-    "curve_sigma": ("input level F/F_s of the model's jump curve", "1"),
-    "curve_jump_frequency_ratio": ("jump frequency ratio of the fitted model", "1"),
-    "parameter": ("fitted configuration key", LABEL),
-    "parameter_column": ("fitted configuration key (second index of a matrix)", LABEL),
-    "parameter_units": ("units of the fitted parameter", LABEL),
-    "estimate": ("least-squares estimate of the parameter, in parameter_units", None),
-    "standard_error": (
-        "standard error of the estimate from the Jacobian at the optimum, in parameter_units",
-        None,
-    ),
-    "initial_value": ("where the least-squares search started, in parameter_units", None),
-    "lower_bound": ("lower bound of the search, in parameter_units", None),
-    "upper_bound": ("upper bound of the search, in parameter_units", None),
-    "at_bound": ("the estimate lies on a bound of the search", "1"),
-    "correlation": ("correlation of the estimates", "1"),
-    "law": ("index of the contact damping law fitted (--compare-laws)", "1"),
-    "law_exponent": ("fixed exponent n of the contact damping law (NaN: n fitted)", "1"),
-    "law_estimate": ("estimate of the parameter with that law, in parameter_units", None),
-    "law_standard_error": ("standard error of that estimate, in parameter_units", None),
-    "law_residual_rms": ("RMS of the relative residuals with that law", "1"),
-}
 PARAMETER_UNITS = {
     "rig.natural_frequency": "Hz",
     "damping.ratio": "1",
     "damping.exponent": "1",
 }
 RESIDUAL_UNITS = "relative (amplitudes and jump frequencies); radian (phases)"
-
-
-def _attrs(name: str) -> dict[str, Any]:
-    """CF attributes of a variable: the shared table first, then :data:`MEASURED_ATTRIBUTES`."""
-    if name in MEASURED_ATTRIBUTES:
-        long_name, units = MEASURED_ATTRIBUTES[name]
-        return {"long_name": long_name} | ({} if units is None else {"units": units})
-    return attrs(name)
 
 
 # --------------------------------------------------------------------------- CSV
@@ -319,8 +279,8 @@ def _grid(
         for d, s in zip(data.direction, data.sigma, strict=True)
     ]
     coords = {
-        "direction": ("direction", np.array(directions, dtype=object), _attrs("direction")),
-        "sigma": ("sigma", sigma, _attrs("sigma")),
+        "direction": ("direction", np.array(directions, dtype=object), attrs("direction")),
+        "sigma": ("sigma", sigma, attrs("sigma")),
     }
     return directions, sigma, coords, cells
 
@@ -352,7 +312,7 @@ def measured_dataset(
         values = np.full(shape, np.nan)
         for (d, s), f in zip(cells, data.frequency, strict=True):
             values[d, s] = f
-        variables[name] = (("direction", "sigma"), values, _attrs(name))
+        variables[name] = (("direction", "sigma"), values, attrs(name))
         title = "Measured jump frequencies of a preloaded Hertzian contact"
     else:
         axis = _frequency_name(data)
@@ -366,14 +326,14 @@ def measured_dataset(
             amplitude[d, s, i[row], k[row]] = data.amplitude[row]
             phase[d, s, i[row], k[row]] = data.phase[row]
         dims = ("direction", "sigma", axis, "harmonic")
-        variables["amplitude"] = (dims, amplitude, _attrs("amplitude"))
-        variables["phase"] = (dims, phase, _attrs("phase"))
-        coords[axis] = (axis, frequency, _attrs(axis))
-        coords["harmonic"] = ("harmonic", harmonic, _attrs("harmonic"))
+        variables["amplitude"] = (dims, amplitude, attrs("amplitude"))
+        variables["phase"] = (dims, phase, attrs("phase"))
+        coords[axis] = (axis, frequency, attrs(axis))
+        coords["harmonic"] = ("harmonic", harmonic, attrs("harmonic"))
         title = "Measured stepped-sine sweeps of a preloaded Hertzian contact"
     reference = _references(data, shape, cells)
     if reference is not None:
-        variables["reference"] = (("direction", "sigma"), reference, _attrs("reference"))
+        variables["reference"] = (("direction", "sigma"), reference, attrs("reference"))
     ds = xr.Dataset(variables, coords=coords, attrs=_base_attributes(title, KIND, history))
     ds.attrs.update(measured_kind=data.kind, measured_file=os.path.abspath(data.source))
     return ds
@@ -449,22 +409,22 @@ def fit_dataset(
     f0 = _f0(result)
     if isinstance(data, JumpMeasurements):
         variables = _jump_variables(result, cells, shape)
-        coords["curve_sigma"] = ("curve_sigma", result.curve_sigma, _attrs("curve_sigma"))
+        coords["curve_sigma"] = ("curve_sigma", result.curve_sigma, attrs("curve_sigma"))
         order = [("down", "up").index(d) for d in directions]
         variables["curve_jump_frequency_ratio"] = (
             ("direction", "curve_sigma"),
             result.curve_frequency_ratio[order],
-            _attrs("curve_jump_frequency_ratio"),
+            attrs("curve_jump_frequency_ratio"),
         )
     else:
         variables, axis_coords = _sweep_variables(result, cells, shape, f0)
         coords.update(axis_coords)
     variables.update(_parameter_variables(result))
-    coords["parameter"] = ("parameter", np.array(result.keys, dtype=object), _attrs("parameter"))
+    coords["parameter"] = ("parameter", np.array(result.keys, dtype=object), attrs("parameter"))
     coords["parameter_column"] = (
         "parameter_column",
         np.array(result.keys, dtype=object),
-        _attrs("parameter_column"),
+        attrs("parameter_column"),
     )
     if result.laws:
         law_variables, law_coords = _law_variables(result)
@@ -515,12 +475,12 @@ def _jump_variables(result: FitResult, cells, shape) -> dict[str, Any]:
     dims = ("direction", "sigma")
     model = result.model["frequency"]
     return {
-        name: (dims, _per_cell(data.frequency, cells, shape), _attrs(name)),
-        f"model_{name}": (dims, _per_cell(model, cells, shape), _attrs(f"model_{name}")),
+        name: (dims, _per_cell(data.frequency, cells, shape), attrs(name)),
+        f"model_{name}": (dims, _per_cell(model, cells, shape), attrs(f"model_{name}")),
         "residual_jump": (
             dims,
             _per_cell(result.point_residuals["jump"], cells, shape),
-            _attrs("residual_jump"),
+            attrs("residual_jump"),
         ),
     }
 
@@ -542,20 +502,20 @@ def _sweep_variables(result: FitResult, cells, shape, f0: float) -> tuple[dict, 
     residual = result.point_residuals
     dims = ("direction", "sigma", axis)
     variables = {
-        "amplitude": (dims, grid(data.amplitude), _attrs("amplitude")),
-        "phase": (dims, grid(data.phase), _attrs("phase")),
-        "model_amplitude": (dims, grid(result.model["amplitude"]), _attrs("model_amplitude")),
-        "model_phase": (dims, grid(result.model["phase"]), _attrs("model_phase")),
-        "residual_amplitude": (dims, grid(residual["amplitude"]), _attrs("residual_amplitude")),
+        "amplitude": (dims, grid(data.amplitude), attrs("amplitude")),
+        "phase": (dims, grid(data.phase), attrs("phase")),
+        "model_amplitude": (dims, grid(result.model["amplitude"]), attrs("model_amplitude")),
+        "model_phase": (dims, grid(result.model["phase"]), attrs("model_phase")),
+        "residual_amplitude": (dims, grid(residual["amplitude"]), attrs("residual_amplitude")),
         "residual_phase": (
             dims,
             grid(np.degrees(residual["phase"])),
-            _attrs("residual_phase"),
+            attrs("residual_phase"),
         ),
     }
     other = "frequency_ratio" if axis == "frequency" else "frequency"
     scaled = frequency / f0 if axis == "frequency" else frequency * f0
-    coords = {axis: (axis, frequency, _attrs(axis)), other: (axis, scaled, _attrs(other))}
+    coords = {axis: (axis, frequency, attrs(axis)), other: (axis, scaled, attrs(other))}
     return variables, coords
 
 
@@ -563,17 +523,17 @@ def _parameter_variables(result: FitResult) -> dict[str, Any]:
     keys = ("parameter",)
     units = np.array([PARAMETER_UNITS[k] for k in result.keys], dtype=object)
     return {
-        "parameter_units": (keys, units, _attrs("parameter_units")),
-        "estimate": (keys, result.estimate, _attrs("estimate")),
-        "standard_error": (keys, result.standard_error, _attrs("standard_error")),
-        "initial_value": (keys, result.initial, _attrs("initial_value")),
-        "lower_bound": (keys, result.lower, _attrs("lower_bound")),
-        "upper_bound": (keys, result.upper, _attrs("upper_bound")),
-        "at_bound": (keys, result.at_bound.astype(np.int8), _attrs("at_bound")),
+        "parameter_units": (keys, units, attrs("parameter_units")),
+        "estimate": (keys, result.estimate, attrs("estimate")),
+        "standard_error": (keys, result.standard_error, attrs("standard_error")),
+        "initial_value": (keys, result.initial, attrs("initial_value")),
+        "lower_bound": (keys, result.lower, attrs("lower_bound")),
+        "upper_bound": (keys, result.upper, attrs("upper_bound")),
+        "at_bound": (keys, result.at_bound.astype(np.int8), attrs("at_bound")),
         "correlation": (
             ("parameter", "parameter_column"),
             result.correlation,
-            _attrs("correlation"),
+            attrs("correlation"),
         ),
     }
 
@@ -592,20 +552,20 @@ def _law_variables(result: FitResult) -> tuple[dict, dict]:
             error[row, keys.index(key)] = s
     dims = ("law", "parameter")
     variables = {
-        "law_estimate": (dims, estimate, _attrs("law_estimate")),
-        "law_standard_error": (dims, error, _attrs("law_standard_error")),
+        "law_estimate": (dims, estimate, attrs("law_estimate")),
+        "law_standard_error": (dims, error, attrs("law_standard_error")),
         "law_residual_rms": (
             ("law",),
             np.array([law.result.residual_rms for law in laws]),
-            _attrs("law_residual_rms"),
+            attrs("law_residual_rms"),
         ),
     }
     coords = {
-        "law": ("law", np.arange(len(laws), dtype=np.int32), _attrs("law")),
+        "law": ("law", np.arange(len(laws), dtype=np.int32), attrs("law")),
         "law_exponent": (
             "law",
             np.array([law.exponent for law in laws]),
-            _attrs("law_exponent"),
+            attrs("law_exponent"),
         ),
     }
     return variables, coords
