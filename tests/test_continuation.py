@@ -231,7 +231,7 @@ def test_branch_leaving_the_span_where_it_began_is_kept_and_flagged():
     assert not branch.complete and branch.end == "start"
     assert branch.frequency_ratio[-1] == 0.5 and not branch.stable[-1]
     assert [b.kind for b in branch.bifurcations] == ["fold"]
-    ds = branch_dataset(result, scene)
+    ds = branch_dataset(result, scene).to_xarray()
     assert ds.branch_complete.values.tolist() == [0]
     assert ds.branch_end.values.tolist() == ["start"]
 
@@ -323,7 +323,7 @@ def test_branch_command_rejects_bad_input(tmp_path, capsys):
 def test_single_frequency_span_gives_one_point():
     scene = make_scene(excitation={"sigma": [0.01, 0.02]}, sweep={"start": 0.9, "stop": 0.9})
     result = run_branch(scene)
-    ds = branch_dataset(result, scene)
+    ds = branch_dataset(result, scene).to_xarray()
     assert dict(ds.sizes)["point"] == 1 and dict(ds.sizes)["bifurcation"] == 1
     assert ds.branch_complete.values.tolist() == [1, 1]
     assert list(ds.bifurcation_kind.values[:, 0]) == ["", ""]

@@ -46,7 +46,7 @@ def scene():
 
 @pytest.fixture(scope="module")
 def sweep_ds(scene):
-    return sweep_dataset(run_sweep(scene), scene)
+    return sweep_dataset(run_sweep(scene), scene).to_xarray()
 
 
 def _dataset(scene, kind, data, coords, extra=None):
@@ -609,7 +609,7 @@ def test_real_trace_flights():
         excitation={"sigma": [0.078]},
         sweep={"start": 0.58, "stop": 0.95, "step": 0.01, "settle_periods": 150},
     )
-    ds = trace_dataset(run_trace(scene, 0.58, periods=2, branch="upper"), scene)
+    ds = trace_dataset(run_trace(scene, 0.58, periods=2, branch="upper"), scene).to_xarray()
     fig = figure(ds)
     time_axes = fig.axes[0]
     assert [c for c in time_axes.collections if isinstance(c, PolyCollection)]
@@ -624,7 +624,7 @@ def test_real_branch_folds(sweep_ds):
     from hertzsweep.output.dataset import branch_dataset
 
     scene = make_scene(**SMALL_SWEEP)
-    ds = branch_dataset(run_branch(scene), scene)
+    ds = branch_dataset(run_branch(scene), scene).to_xarray()
     fig = figure(ds, view="amplitude", harmonics=[1], sigma=[0.01], overlay=sweep_ds)
     ax = fig.axes[0]
     curves = [line for line in ax.get_lines() if line.get_linestyle() in ("-", ":")]

@@ -43,12 +43,19 @@ def test_light_commands_load_no_heavy_module(argv):
     assert loaded(*argv) == set()
 
 
-def test_sweep_loads_neither_matplotlib_nor_pyfftw_nor_dask_arrays(tmp_path):
-    """xarray asks dask's core whether each array it wraps is a dask collection
-    (``dask.base``, 0.07 s); dask.array (0.2 s) and distributed are never loaded."""
-    modules = loaded(
-        "sweep", str(CONFIGS / "default.toml"), "-o", str(tmp_path / "s.nc"), "-q",
-        "--set", "sweep.start=0.97", "--set", "sweep.stop=0.98",
-    )  # fmt: skip
-    assert {"numba", "xarray"} <= modules  # it does compile and write
-    assert not modules & {"matplotlib", "pyfftw", "dask.array", "distributed"}
+@pytest.mark.parametrize(
+    "argv",
+    [("sweep", str(CONFIGS / "default.toml"), "--set", "sweep.start=0.97",
+      "--set", "sweep.stop=0.98"),
+     ("trace", str(CONFIGS / "default.toml"), "-w", "0.97", "--periods", "2",
+      "--set", "sweep.start=0.97", "--set", "sweep.stop=0.98")],
+    ids=["sweep", "trace"],
+)  # fmt: skip
+def test_writing_a_run_loads_no_xarray_pandas_matplotlib_or_dask(tmp_path, argv):
+    """A sweep or a trace builds its dataset as numpy arrays (output.frame) and writes it
+    with netCDF4: xarray and pandas (0.3 s), and the dask xarray probes, are never
+    loaded; pyfftw only by a trace's spectrum."""
+    modules = loaded(*argv, "-o", str(tmp_path / "s.nc"), "-q")
+    assert "numba" in modules  # it does compile and write
+    assert not modules & {"xarray", "pandas", "matplotlib", "dask", "distributed"}
+    assert ("pyfftw" in modules) == (argv[0] == "trace")

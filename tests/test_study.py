@@ -259,7 +259,7 @@ def test_branch_study_pads_points(tmp_path, capsys):
     assert ds.amplitude.dims == ("sweep_stop", "sigma", "point", "harmonic")
     assert ds.multiplier_real.dims == ("sweep_stop", "sigma", "point", "multiplier")
     for case in expand(load_study(path)):
-        part = branch_dataset(run_branch(case.scene), case.scene)
+        part = branch_dataset(run_branch(case.scene), case.scene).to_xarray()
         sel = ds.sel(sweep_stop=case.values["sweep.stop"])
         n = part.sizes["point"]
         assert np.array_equal(sel.amplitude.values[:, :n], part.amplitude.values)

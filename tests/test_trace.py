@@ -359,7 +359,7 @@ def test_cli_bad_input(tmp_path, capsys, extra, key):
 def test_dataset_without_file(impacting):
     # the builder's record variables are views of the result's record (no copy)
     scene, result = impacting
-    ds = trace_dataset(result, scene, history="test")
+    ds = trace_dataset(result, scene, history="test").to_xarray()
     assert np.shares_memory(ds.normal_force.values, result.record)
     assert ds.flight_duration.attrs["units"] == "s"
     omega = derive(scene.rig).natural_circular_frequency

@@ -18,6 +18,7 @@ pyfftw is not installed. pyfftw is imported only when a spectrum is first comput
 from __future__ import annotations
 
 import importlib.util
+import sys
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -48,12 +49,32 @@ class FFTWPlan:
 @lru_cache(maxsize=CACHED_PLANS)
 def fftw_plan(samples: int) -> FFTWPlan:
     """The process's plan for records of ``samples`` values (made on first use)."""
-    import pyfftw
-
+    pyfftw = _import_pyfftw()
     output = pyfftw.empty_aligned(samples // 2 + 1, dtype="complex128")
     real = output.view("float64")[:samples]
     execute = pyfftw.FFTW(real, output, flags=FFTW_FLAGS, threads=FFTW_THREADS)
     return FFTWPlan(execute, real, output)
+
+
+def _import_pyfftw() -> Any:
+    """pyfftw, without the dask interface it loads when dask is installed.
+
+    ``import pyfftw`` imports ``pyfftw.interfaces``, which imports ``dask.array`` (and
+    with it pandas: about 1 s) to offer a dask FFT that hertzsweep does not use. While
+    dask has not been imported, it is hidden for the duration of the import (a ``None``
+    entry in ``sys.modules`` makes the import fail at once, and pyfftw skips that
+    interface); where dask is already loaded, pyfftw is imported as it is.
+    """
+    if "pyfftw" in sys.modules or "dask" in sys.modules:
+        import pyfftw
+
+        return pyfftw
+    sys.modules["dask"] = None  # type: ignore[assignment]
+    try:
+        import pyfftw
+    finally:
+        del sys.modules["dask"]
+    return pyfftw
 
 
 def harmonic_orders(samples: int, periods: int) -> np.ndarray:

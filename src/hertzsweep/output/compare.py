@@ -19,10 +19,12 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from ..core.config import RigConfig, Scene
 from ..errors import HertzsweepError
+from .frame import load_xarray
+
+xr = load_xarray()  # xarray with its dask probe kept quiet
 
 # Modes of comparison (``allowed = atol + rtol |reference|`` at each point):
 RELATIVE = "relative"  # |run - reference| <= allowed

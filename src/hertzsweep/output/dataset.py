@@ -1,4 +1,4 @@
-"""Datasets: results -> self-describing xarray Datasets with CF-1.11 attributes.
+"""Datasets: results -> self-describing datasets with CF-1.11 attributes.
 
 The one table of output attributes is :data:`ATTRIBUTES`; every builder takes names
 from it, so a variable means the same thing in every dataset. Builders take a driver's
@@ -16,7 +16,10 @@ own arguments (``command_json``): ``hertzsweep rerun`` runs it again from these.
 Files are netCDF4 written by the netCDF4 library itself (:func:`write_netcdf`): CF-1.11
 clean as the compliance checker reads it (no ``_FillValue`` on coordinates, strings as
 character arrays: CF labels), and without xarray's writer, which imports dask to look
-for a scheduler.
+for a scheduler. The builders of the sweep, trace, branch and accuracy datasets make a
+:class:`~hertzsweep.output.frame.Frame` (numpy arrays), so a command that writes one
+never imports xarray or pandas; ``frame.to_xarray()`` is the dataset reading the file
+gives (:func:`open_dataset`).
 """
 
 from __future__ import annotations
@@ -35,15 +38,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 from .. import __version__
 from ..core.config import Scene
 from ..core.rig import RigConstants, derive
 from ..drivers.readings import HARMONIC_FIELDS, SCALAR_FIELDS
+from .frame import Frame, Variable, load_xarray
 from .paths import atomic_path, write_file
 
 if TYPE_CHECKING:  # the results' types only: building a dataset runs no driver
+    import xarray as xr
+
     from ..drivers.accuracy import AccuracyReport
     from ..drivers.continuation import BranchResult
     from ..drivers.sweep import SweepResult
@@ -189,33 +194,6 @@ ATTRIBUTES: dict[str, tuple[str, str | None] | tuple[str, str | None, dict[str, 
     "law_standard_error": ("standard error of that estimate, in parameter_units", None),
     "law_residual_rms": ("RMS of the relative residuals with that law", "1"),
 }
-
-
-def _no_dask_probe() -> None:
-    """Keep xarray from importing dask when it wraps numpy data.
-
-    xarray asks for dask's array type each time it wraps data into a variable
-    (``xarray.core.variable.array_type("dask")``), which imports ``dask.array`` (0.2 s, and
-    distributed's configuration) although no array here is a dask array. While
-    ``dask.array`` has not been imported, no array can be one: answer with no type. Once
-    anything imports dask.array, xarray's own answer is used.
-    """
-    from xarray.core import variable
-
-    original = getattr(variable, "array_type", None)
-    if original is None or getattr(original, "hertzsweep", False):
-        return
-
-    def array_type(mod: str) -> Any:
-        if mod == "dask" and "dask.array" not in sys.modules:
-            return ()
-        return original(mod)
-
-    array_type.hertzsweep = True  # type: ignore[attr-defined]
-    variable.array_type = array_type
-
-
-_no_dask_probe()
 
 
 def attrs(name: str) -> dict[str, Any]:
@@ -394,13 +372,13 @@ def _readings(get: Callable[[str], Any], dims: tuple[str, ...], omega: float) ->
     return data
 
 
-def _build(data: Variables, coords: Mapping[str, Any], global_attrs: dict[str, Any]) -> xr.Dataset:
+def _build(data: Variables, coords: Mapping[str, Any], global_attrs: dict[str, Any]) -> Frame:
     """A dataset whose variables take their CF attributes from :data:`ATTRIBUTES`."""
     variables = {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()}
-    return xr.Dataset(variables, coords=coords, attrs=global_attrs)
+    return Frame(variables, coords, global_attrs)
 
 
-def _flags(ds: xr.Dataset, names: Sequence[str], values: np.ndarray, meanings: str) -> None:
+def _flags(ds: Frame, names: Sequence[str], values: np.ndarray, meanings: str) -> None:
     """CF flag attributes (``flag_values``, ``flag_meanings``) of integer variables."""
     for name in names:
         ds[name].attrs.update(flag_values=values, flag_meanings=meanings)
@@ -420,7 +398,7 @@ def _coords(result: SweepResult, constants: RigConstants) -> dict[str, Any]:
     }
 
 
-def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None) -> xr.Dataset:
+def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None) -> Frame:
     """The SPEC's sweep dataset."""
     constants = derive(scene.rig)
     base = ("direction", "sigma", "frequency_ratio")
@@ -440,7 +418,7 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
 
 
 # --------------------------------------------------------------------------- trace
-def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None) -> xr.Dataset:
+def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None) -> Frame:
     """The trace dataset of a :class:`hertzsweep.drivers.trace.TraceResult`.
 
     Dimensions ``sigma``, ``sample`` (coordinates ``tau`` and ``time`` [s]),
@@ -520,7 +498,7 @@ def _padded(rows: Sequence[Any], width: int, fill: Any = np.nan, dtype: Any = fl
     return out
 
 
-def branch_dataset(result: BranchResult, scene: Scene, history: str | None = None) -> xr.Dataset:
+def branch_dataset(result: BranchResult, scene: Scene, history: str | None = None) -> Frame:
     """The branch dataset of a :class:`~hertzsweep.drivers.continuation.BranchResult`.
 
     Dimensions ``sigma``, ``point`` (points in arclength order, NaN padded; ``stable``
@@ -587,9 +565,7 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
 
 
 # --------------------------------------------------------------------------- accuracy
-def accuracy_dataset(
-    report: AccuracyReport, scene: Scene, history: str | None = None
-) -> xr.Dataset:
+def accuracy_dataset(report: AccuracyReport, scene: Scene, history: str | None = None) -> Frame:
     """The accuracy dataset of a :class:`hertzsweep.drivers.accuracy.AccuracyReport`.
 
     Dimension ``setting`` (the rungs that ran, reference last) with coordinates
@@ -684,7 +660,7 @@ def accuracy_command(report: AccuracyReport) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- files
-def write_atomic(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+def write_atomic(ds: Frame | xr.Dataset, path: str | os.PathLike) -> Path:
     """Write netCDF4 (:func:`write_netcdf`) through :func:`.paths.atomic_path`: the output
     is complete or absent; a write that fails (no space, I/O error) ends as one
     ``OSError`` naming ``path``, its temporary removed."""
@@ -697,7 +673,7 @@ COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}  # float arrays: a
 MEMORY_START = 1 << 16  # [bytes] first size of the in-memory file (it grows as needed)
 
 
-def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> None:
+def write_netcdf(ds: Frame | xr.Dataset, path: str | os.PathLike) -> None:
     """Write a dataset as netCDF4 with the netCDF4 library, CF-1.11 clean, so that
     :func:`open_dataset` (xarray) reads back the same variables, coordinates and
     attributes:
@@ -739,7 +715,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> None:
     write_file(path, _hdf5_image(nc.close()))
 
 
-def _fill(nc: Any, ds: xr.Dataset) -> None:
+def _fill(nc: Any, ds: Frame | xr.Dataset) -> None:
     """The attributes, dimensions and variables of a dataset into an open netCDF4 file."""
     for key, value in ds.attrs.items():
         nc.setncattr(key, _attribute(key, value))
@@ -769,7 +745,7 @@ def _hdf5_image(image: memoryview) -> memoryview:
     return image[:end] if 0 < end <= len(image) else image
 
 
-def _coordinates_attributes(ds: xr.Dataset) -> dict[Any, str]:
+def _coordinates_attributes(ds: Frame | xr.Dataset) -> dict[Any, str]:
     """``coordinates`` of each data variable: the non-dimension coordinates whose
     dimensions are all among its own."""
     auxiliary = [name for name in ds.coords if name not in ds.dims]
@@ -782,7 +758,7 @@ def _coordinates_attributes(ds: xr.Dataset) -> dict[Any, str]:
 
 
 def _write_variable(
-    nc: Any, name: str, var: xr.Variable, is_coordinate: bool, extra: Mapping[str, str]
+    nc: Any, name: str, var: Variable | xr.Variable, is_coordinate: bool, extra: Mapping[str, str]
 ) -> None:
     """One variable: its type, dimensions, fill value, compression and attributes."""
     import netCDF4
@@ -848,11 +824,12 @@ def _attribute(name: str, value: Any) -> Any:
 
 def open_dataset(path: str | os.PathLike) -> xr.Dataset:
     """Open a hertzsweep netCDF file fully into memory (the file is closed on return)."""
+    xr = load_xarray()
     with xr.open_dataset(path, engine="netcdf4") as ds:
         return ds.load()
 
 
-def merge_attributes(ds: xr.Dataset, extra: Mapping[str, Any]) -> xr.Dataset:
+def merge_attributes(ds: Frame | xr.Dataset, extra: Mapping[str, Any]) -> Frame | xr.Dataset:
     """Add global attributes, converted for netCDF (bools to 0/1, lists to arrays)."""
     ds.attrs.update({k: _netcdf_value(v) for k, v in extra.items()})
     return ds

@@ -21,14 +21,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-import xarray as xr
-
 from ..errors import HertzsweepError
 from . import summary
 from .dataset import accuracy_dataset, branch_dataset, sweep_dataset, trace_dataset
-from .study import combine, run_parts
+from .frame import Frame
 
-if TYPE_CHECKING:  # matplotlib only where a figure is drawn
+if TYPE_CHECKING:  # matplotlib and xarray only where a figure is drawn or a study combined
+    import xarray as xr
     from matplotlib.figure import Figure
 
     from ..drivers.study import Case, Engine, Runner, Study, StudyRun
@@ -75,9 +74,9 @@ class Kind:
     source: str
     views: tuple[str, ...]
     run: Callable[..., Any]
-    build: Callable[..., xr.Dataset]
+    build: Callable[..., Frame | xr.Dataset]
     draw: Callable[..., Figure]
-    summary: Callable[[Any, xr.Dataset], str]
+    summary: Callable[[Any, Frame | xr.Dataset], str]
     case_driver: Callable[[], Runner] | None = None
     at_frequency: bool = False
 
@@ -116,9 +115,18 @@ def _run_study(
 ) -> StudyRun:
     """The study's cases into their parts (:func:`hertzsweep.output.study.run_parts`), by
     the case driver and the dataset builder of the study's kind."""
+    from .study import run_parts
+
     case_kind = KINDS[study.kind]
     runner, build = case_kind.case_driver(), case_kind.build
     return run_parts(study, cases, output, engine, runner, build, **options)
+
+
+def _combine(*args: Any, **kwargs: Any) -> xr.Dataset:
+    """:func:`hertzsweep.output.study.combine`."""
+    from .study import combine
+
+    return combine(*args, **kwargs)
 
 
 def _sweep_case() -> Runner:
@@ -230,7 +238,7 @@ KINDS: dict[str, Kind] = {  # name, source, views, run, build, draw, summary[, e
              _draw_trace, summary.trace_summary, at_frequency=True),
         Kind("branch", SCENE, ("harmonics", "amplitude"), _run_branch, branch_dataset,
              _draw_branch, summary.branch_summary, case_driver=_branch_case),
-        Kind("study", STUDY, ("jumps",), _run_study, combine, _draw_study,
+        Kind("study", STUDY, ("jumps",), _run_study, _combine, _draw_study,
              summary.study_summary),
         Kind("accuracy", SCENE, ("errors",), _run_accuracy, accuracy_dataset,
              _draw_accuracy, summary.accuracy_summary),

@@ -32,7 +32,6 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from .. import __version__
 from ..core.config import Scene, read_text
@@ -44,6 +43,9 @@ from ..drivers.fit import (
 )
 from ..errors import ConfigError, HertzsweepError, MeasurementError
 from .dataset import CONVENTIONS, attrs, global_attributes, history_line, provenance
+from .frame import load_xarray
+
+xr = load_xarray()  # xarray with its dask probe kept quiet
 
 DIRECTIONS = ("up", "down")
 MAX_MEASUREMENT_BYTES = 64 * 2**20  # a rig's CSV of sweeps or jumps is kilobytes; 64 MiB

@@ -22,7 +22,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from ..core.config import (
     ExcitationConfig,
@@ -40,8 +39,11 @@ from ..drivers.sweep import run_sweep
 from ..errors import ConfigError, HertzsweepError
 from . import plot
 from .dataset import atomic_path, history_line, write_atomic
+from .frame import as_xarray, load_xarray
 from .kinds import KINDS, SCENE, STUDY, STUDY_KINDS, Kind, check_view, figure
 from .study import failure_lines, parts_folder
+
+xr = load_xarray()  # xarray with its dask probe kept quiet
 
 MANIFEST = "paper.toml"
 RUN_KEYS = (
@@ -453,12 +455,12 @@ def run_datasets(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:
         return [_study_dataset(run, kind, history, out_dir)]
     scene = load_scene(run.source, run.overrides)
     if not kind.at_frequency:
-        return [kind.build(kind.run(scene), scene, history)]
+        return [as_xarray(kind.build(kind.run(scene), scene, history))]
     out = []
     for one in _single_level_scenes(scene):
         w = peak_frequency(one) if run.frequency == "peak" else float(run.frequency)
         result = kind.run(one, w, periods=run.periods, branch="upper")
-        out.append(kind.build(result, one, history))
+        out.append(as_xarray(kind.build(result, one, history)))
     return out
 
 

@@ -37,7 +37,6 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
@@ -46,6 +45,9 @@ from matplotlib.ticker import FuncFormatter, LogLocator, MultipleLocator, NullFo
 from .. import __version__
 from ..errors import HertzsweepError
 from .dataset import atomic_path
+from .frame import load_xarray
+
+xr = load_xarray()  # xarray with its dask probe kept quiet
 
 DPI = 200  # dots per inch of the raster formats: print quality (journals ask 150-300)
 FORMATS = ("png", "pdf", "svg")  # figure files, by extension

@@ -20,12 +20,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import xarray as xr
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..errors import HertzsweepError
+from .frame import load_xarray
 from .plot import (
     COLOURS,
     DPI,
@@ -36,6 +36,8 @@ from .plot import (
     phase_window,
     select_harmonics,
 )
+
+xr = load_xarray()  # xarray with its dask probe kept quiet
 
 MARKER = "s"  # measured points are squares (simulated sweeps are circles)
 JUMP_MARKERS = {"down": "v", "up": "^"}  # measured jump frequencies, by sweep direction

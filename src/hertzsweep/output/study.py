@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from ..core.config import Scene, scene_from_dict
 from ..core.rig import derive
@@ -48,7 +47,10 @@ from .dataset import (
     to_json,
     write_atomic,
 )
+from .frame import Frame, load_xarray
 from .paths import parts_folder
+
+xr = load_xarray()  # xarray with its dask probe kept quiet
 
 Builder = Callable[[Any, Scene, str | None], xr.Dataset]  # result, scene, history -> dataset
 GRID_UNITS = {  # units of grid coordinates that are SI config values
@@ -133,10 +135,10 @@ class PartWriter:
             outcome = CaseOutcome(error=error, seconds=outcome.seconds)
         return outcome
 
-    def write_part(self, case: Case, dataset: xr.Dataset) -> Path:
+    def write_part(self, case: Case, dataset: Frame | xr.Dataset) -> Path:
         """Write a finished case atomically, with its grid values and hash as attributes
-        (an older error record of the same case is removed)."""
-        dataset = dataset.copy()
+        (added to ``dataset``, built for this part; an older error record of the same case
+        is removed)."""
         dataset.attrs.update(
             study_case_hash=case.hash,
             study_case=json.dumps(case.values, default=json_default),

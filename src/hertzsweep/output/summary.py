@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 if TYPE_CHECKING:  # the results' types only
+    import xarray as xr
+
     from ..drivers.accuracy import AccuracyReport
     from ..drivers.continuation import BranchResult
 
@@ -33,59 +34,75 @@ def _jump_text(value: float, width: int) -> str:
 
 
 # --------------------------------------------------------------------------- sweep
-def sweep_summary(result: object, ds: xr.Dataset) -> str:
+def sweep_summary(result: object, ds: Any) -> str:
     """A short table: per direction and sigma, the H1 peak, the jump, the force extremes
-    and the largest share out of contact."""
+    and the largest share out of contact (``ds``: a sweep dataset, a
+    :class:`~hertzsweep.output.frame.Frame` or its xarray form)."""
     lines = [
         f"{'direction':9s} {'sigma':>8s} {'peak H1':>8s} {'at w':>7s} {'jump w':>7s} "
         f"{'N max':>6s} {'N min':>6s} {'loss':>5s}"
     ]
-    for direction in ds.direction.values:
-        for sigma in ds.sigma.values:
-            sel = ds.sel(direction=direction, sigma=sigma)
-            h1 = sel.amplitude.isel(harmonic=0).values
-            i = int(np.nanargmax(h1))
+    w = ds["frequency_ratio"].values
+    h1 = ds["amplitude"].values[..., 0]
+    jump = ds["jump_frequency_ratio"].values
+    force_max, force_min = ds["force_max"].values, ds["force_min"].values
+    loss = ds["contact_loss_fraction"].values
+    for i, direction in enumerate(ds["direction"].values):
+        for j, sigma in enumerate(ds["sigma"].values):
+            peak = int(np.nanargmax(h1[i, j]))
             cells = (
                 f"{direction:9s}",
                 f"{sigma:8.4g}",
-                f"{h1[i]:8.4f}",
-                f"{float(sel.frequency_ratio[i]):7.4f}",
-                _jump_text(float(sel.jump_frequency_ratio), 7),
-                f"{float(sel.force_max.max()):6.3f}",
-                f"{float(sel.force_min.min()):6.3f}",
-                f"{float(sel.contact_loss_fraction.max()):5.2f}",
+                f"{h1[i, j, peak]:8.4f}",
+                f"{w[peak]:7.4f}",
+                _jump_text(float(jump[i, j]), 7),
+                f"{np.nanmax(force_max[i, j]):6.3f}",
+                f"{np.nanmin(force_min[i, j]):6.3f}",
+                f"{np.nanmax(loss[i, j]):5.2f}",
             )
             lines.append(" ".join(cells))
     return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------- trace
-def trace_summary(result: object, ds: xr.Dataset) -> str:
+def trace_summary(result: object, ds: Any) -> str:
     """One line per sigma: harmonics, force extremes, contact loss and flights."""
     lines = []
-    for sigma in ds.sigma.values:
-        sel = ds.sel(sigma=sigma)
+    value = {name: ds[name].values for name in TRACE_SUMMARY}
+    for i, sigma in enumerate(ds["sigma"].values):
         harmonics = " ".join(
-            f"H{int(k)} {float(a):.4f}"
-            for k, a in zip(ds.harmonic.values, sel.amplitude.values, strict=True)
+            f"H{int(k)} {a:.4f}"
+            for k, a in zip(ds["harmonic"].values, value["amplitude"][i], strict=True)
         )
-        count = int(sel.flight_count)
+        count = int(value["flight_count"][i])
         flights = "no flight"
         if count:
-            flights = f"{count} flight(s), longest {float(sel.flight_time) * 1e3:.3f} ms"
-        state = "settled" if int(sel.settled) else "NOT settled"
-        if not int(sel.periodic):
+            flights = f"{count} flight(s), longest {value['flight_time'][i] * 1e3:.3f} ms"
+        state = "settled" if value["settled"][i] else "NOT settled"
+        if not value["periodic"][i]:
             state += ", not periodic"
         lines.append(
             f"sigma {sigma:.4g} w {ds.attrs['frequency_ratio']:.4f} {ds.attrs['branch']}: "
-            f"{harmonics}  N max {float(sel.force_max):.3f} min {float(sel.force_min):.3f}  "
-            f"loss {float(sel.contact_loss_fraction):.3f}  {flights} ({state})"
+            f"{harmonics}  N max {value['force_max'][i]:.3f} min {value['force_min'][i]:.3f}  "
+            f"loss {value['contact_loss_fraction'][i]:.3f}  {flights} ({state})"
         )
     return "\n".join(lines)
 
 
+TRACE_SUMMARY = (  # the per-sigma variables of a trace's summary line
+    "amplitude",
+    "flight_count",
+    "flight_time",
+    "settled",
+    "periodic",
+    "force_max",
+    "force_min",
+    "contact_loss_fraction",
+)
+
+
 # --------------------------------------------------------------------------- branch
-def branch_summary(result: BranchResult, ds: xr.Dataset) -> str:
+def branch_summary(result: BranchResult, ds: Any) -> str:
     """Per sigma: points, stable share, peak H1 and the located bifurcations; a caution
     where contact damping with n < 1 meets loss of contact."""
     lines = [
@@ -152,7 +169,7 @@ def _number(x: float, spec: str = ".2e") -> str:
     return format(x, spec)
 
 
-def accuracy_summary(report: AccuracyReport, ds: xr.Dataset) -> str:
+def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
     """The table, the reference check, the observed order, the Pareto front and the
     recommendation."""
     lines = [
