@@ -42,8 +42,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..core.checks import preflight
 from ..core.config import (
     CLASSES,
@@ -339,31 +337,9 @@ def _worker_init(driver: int) -> None:
                 os._exit(1)
 
     threading.Thread(target=watch, name="hertzsweep-driver-watch", daemon=True).start()
-    warm_kernels()
+    from .warm import load_kernels
 
-
-def warm_kernels() -> None:
-    """Load the compiled kernels of every damping law (numba's cache; its runtime starts
-    on the first load, about 0.5 s), so that a worker is warm before its first case."""
-    from ..kernels import integrate, scheme
-    from ..kernels.laws import make_law
-    from .oscillator import drive
-
-    scene = scene_from_dict(WARM_SCENE, source="<warm-up>")
-    h = np.full(2, scheme.step_size(1.0, scene.solver.steps_per_period))
-    for law, exponent in (("viscous", 1.5), ("contact", 1.5), ("contact", 1.3)):
-        record = make_law(law, 0.01, exponent)
-        inputs = drive(scene, [0.01, 0.02])
-        integrate.advance_batch(np.zeros(2), np.zeros(2), h.copy(), record, inputs, 1)
-        buffers = integrate.new_readout(len(scene.lockin.harmonics), 2)
-        integrate.measure(np.zeros(2), np.zeros(2), h.copy(), record, inputs, 1, buffers)
-        integrate.retune_batch(np.zeros(2), np.zeros(2), h.copy(), 1.01 * h, record)
-
-
-WARM_SCENE = {  # a tiny scene that loads every kernel a sweep case uses
-    "rig": {"ball_radius": 0.0127, "youngs_modulus": 2.1e11, "poisson_ratio": 0.29, "mass": 11.4},
-    "solver": {"steps_per_period": 16},
-}
+    load_kernels()
 
 
 class Engine:

@@ -8,7 +8,8 @@ and the test suite about a minute in all. ``python -m hertzsweep.drivers.warm`` 
 one trajectory at a time, automatic settling, shooting, a trace, a branch) for every law
 type, one group of laws per process, so that the compilation is paid once, at install,
 spread over the cores. It changes no result: the cache holds what the first run would
-have compiled.
+have compiled. :func:`load_kernels` loads a sweep case's kernels from that cache (a study's
+workers call it as they start).
 """
 
 from __future__ import annotations
@@ -49,6 +50,27 @@ def compile_law(law: str, exponent: float) -> str:
     run_trace(scene, 0.92, periods=2)
     run_branch(replace(scene, sweep=replace(scene.sweep, start=0.9, stop=0.92, step=0.01)))
     return f"{law} n={exponent}"
+
+
+def load_kernels() -> None:
+    """Load the compiled kernels a sweep case uses for every law type (numba's cache; its
+    runtime starts on the first load, about 0.5 s), so that a study's worker is warm
+    before its first case."""
+    import numpy as np
+
+    from ..kernels import integrate, scheme
+    from ..kernels.laws import make_law
+    from .oscillator import drive
+
+    scene = scene_from_dict(TINY_SCENE, source="<warm-up>")
+    h = np.full(2, scheme.step_size(1.0, scene.solver.steps_per_period))
+    inputs = drive(scene, scene.excitation.sigma)
+    buffers = integrate.new_readout(len(scene.lockin.harmonics), 2)
+    for law, exponent in LAW_SETTINGS:
+        record = make_law(law, 0.01, exponent)
+        integrate.advance_batch(np.zeros(2), np.zeros(2), h.copy(), record, inputs, 1)
+        integrate.measure(np.zeros(2), np.zeros(2), h.copy(), record, inputs, 1, buffers)
+        integrate.retune_batch(np.zeros(2), np.zeros(2), h.copy(), 1.01 * h, record)
 
 
 def compile_all(workers: int | None = None) -> list[str]:
