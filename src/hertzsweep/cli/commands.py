@@ -10,7 +10,7 @@ import click
 
 from ..core.checks import check_rig, format_size, load_checked_scene
 from ..core.config import read_rig
-from ..core.model import stability_limit
+from ..core.model import STABILITY, stability_limit
 from ..core.rig import UNITS
 from . import options
 from .group import cli
@@ -89,7 +89,8 @@ def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
         f"({figures.trajectories} trajector{'y' if figures.trajectories == 1 else 'ies'} of "
         f"{figures.periods_per_dwell} periods a dwell); "
         f"steps_per_period {steps} is {figures.stability_margin:.1f}x the stability limit "
-        f"{limit:.1f}; {figures.steps:.3g} integration steps of the budget "
-        f"{figures.max_steps:.3g}; results {format_size(figures.memory)} of the budget "
+        f"{limit:.1f} of {scene.solver.method} (h omega_max < "
+        f"{STABILITY[scene.solver.method]:.3g}); {figures.steps:.3g} integration steps of the "
+        f"budget {figures.max_steps:.3g}; results {format_size(figures.memory)} of the budget "
         f"{format_size(figures.memory_budget)}"
     )

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .config import (
+    SHOOTING_METHODS,
     DampingConfig,
     ExcitationConfig,
     RigConfig,
@@ -211,6 +212,20 @@ def check_steps_per_period(scene: Scene) -> None:
         )
 
 
+def check_method(scene: Scene, shooting: bool = False) -> None:
+    """A steady state by shooting (``sweep.steady_state``, or ``shooting`` for a command
+    that always shoots: ``branch``) needs a method with the one-period map's Jacobian
+    (:data:`~hertzsweep.core.config.SHOOTING_METHODS`)."""
+    method = scene.solver.method
+    if (shooting or scene.sweep.steady_state == "shooting") and method not in SHOOTING_METHODS:
+        raise ConfigError(
+            scene.source,
+            "solver.method",
+            f'{method} has no one-period Jacobian for shooting (steady_state = "shooting", '
+            f'branch): use {" or ".join(SHOOTING_METHODS)}, or steady_state = "settle"',
+        )
+
+
 def check_harmonics(scene: Scene) -> None:
     """Every lock-in harmonic k below the Nyquist order: ``k < steps_per_period / 2``.
 
@@ -236,8 +251,9 @@ def check_stability_limit(scene: Scene) -> float:
     """The stability limit (:func:`hertzsweep.core.model.stability_limit`), which
     ``steps_per_period`` must exceed: the check the drivers make, as a ConfigError on
     ``solver.steps_per_period``. A limit beyond :data:`MAX_STEPS_PER_PERIOD` names
-    ``excitation.sigma`` or ``sweep.start``, whichever factor of ``limit = pi
-    omega_max / w_min`` lies further above the default scene's."""
+    ``excitation.sigma`` or ``sweep.start``, whichever factor of ``limit = 2 pi
+    omega_max / (b w_min)`` (b the method's bound on h omega) lies further above the
+    default scene's."""
     limit = stability_limit(scene)
     if not limit < MAX_STEPS_PER_PERIOD:
         sigma = max(scene.excitation.sigma)
@@ -383,6 +399,7 @@ def preflight(scene: Scene) -> Figures:
     check_rig(scene.rig, rig_source(scene))
     grid = check_grid(scene)
     check_steps_per_period(scene)
+    check_method(scene)
     limit = check_stability_limit(scene)
     check_harmonics(scene)
     steps = check_steps(scene, grid.size)

@@ -11,8 +11,10 @@ The damping force is ``c(q) q'``; the compiled kernels write the laws once, as d
 (:mod:`hertzsweep.kernels.laws`). This module holds what needs no compiler: the stability
 limit of the explicit scheme, checked before any run.
 
-Stability of the explicit scheme (central difference, undamped): ``h omega_max < 2``
-with ``omega_max^2 = dR/dq = d^(1/2)`` at the largest compression the scene reaches.
+Stability of the explicit methods (undamped, linearised): ``h omega_max < b`` with
+``omega_max^2 = dR/dq = d^(1/2)`` at the largest compression the scene reaches, and the
+method's bound b on the imaginary axis (:data:`STABILITY`): 2 for the central difference,
+``2 sqrt(2)`` for RK4.
 """
 
 from __future__ import annotations
@@ -20,6 +22,10 @@ from __future__ import annotations
 import math
 
 from .config import Scene
+
+STABILITY = {"central-difference": 2.0, "rk4": 2.0 * math.sqrt(2.0)}
+"""The bound on ``h omega`` of each ``solver.method`` (its stability interval on the
+imaginary axis); the kernels check the same bound on the compression they reach."""
 
 
 # --------------------------------------------------------------------------- stability
@@ -49,15 +55,16 @@ def omega_max(sigma: float, zeta: float) -> float:
 
 
 def stability_limit(scene: Scene, lowest: float | None = None) -> float:
-    """The fewest steps per period that keep ``h omega_max < 2`` over the scene.
+    """The fewest steps per period that keep ``h omega_max < b`` over the scene
+    (:data:`STABILITY`).
 
-    ``h = 2 pi / (w N)``, so ``N > pi omega_max / w``; the worst case is the lowest
+    ``h = 2 pi / (w N)``, so ``N > 2 pi omega_max / (b w)``; the worst case is the lowest
     frequency run (the grid's, or ``lowest`` when given: a trace below the grid) and the
     largest sigma.
     """
     w_min = float(scene.sweep.frequency_ratios.min()) if lowest is None else float(lowest)
     om = omega_max(max(scene.excitation.sigma), scene.damping.ratio)
-    return math.pi * om / w_min
+    return 2.0 * math.pi * om / (STABILITY[scene.solver.method] * w_min)
 
 
 def stability_reason(scene: Scene, lowest: float | None = None) -> str | None:
@@ -70,8 +77,8 @@ def stability_reason(scene: Scene, lowest: float | None = None) -> str | None:
     w_min = scene.sweep.frequency_ratios.min() if lowest is None else lowest
     advice = f"use at least {math.floor(limit) + 1}" if math.isfinite(limit) else "none is"
     return (
-        f"{steps} is at or below the stability limit {limit:.1f} (h omega_max >= 2 at w = "
-        f"{w_min:g}); {advice}"
+        f"{steps} is at or below the stability limit {limit:.1f} of {scene.solver.method} "
+        f"(h omega_max >= {STABILITY[scene.solver.method]:.3g} at w = {w_min:g}); {advice}"
     )
 
 

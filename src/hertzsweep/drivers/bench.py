@@ -249,7 +249,7 @@ class Dwell:
         measured periods."""
         return 2.0 * math.hypot(cos_integral, sin_integral) / (self.measure * self.period)
 
-    def scene(self, steps_per_period: int) -> Scene:
+    def scene(self, steps_per_period: int, method: str = "central-difference") -> Scene:
         """The one-frequency scene of hertzsweep's own drivers at N steps per period."""
         w = self.frequency_ratio
         return scene_from_dict(
@@ -264,7 +264,7 @@ class Dwell:
                     "settle_periods": self.settle,
                     "measure_periods": self.measure,
                 },
-                "solver": {"steps_per_period": int(steps_per_period)},
+                "solver": {"steps_per_period": int(steps_per_period), "method": method},
                 "lockin": {"harmonics": [1]},
             },
             source="<bench>",
@@ -391,14 +391,15 @@ def _rk4_periods(y, p, tables, h, periods, sums):
 
 # the H1 of a dwell by each competitor at one setting
 @lru_cache(maxsize=64)
-def _oscillator(dwell: Dwell, steps_per_period: int) -> Oscillator:
-    return Oscillator(dwell.scene(steps_per_period), dwell.sigma)
+def _oscillator(dwell: Dwell, steps_per_period: int, method: str) -> Oscillator:
+    return Oscillator(dwell.scene(steps_per_period, method), dwell.sigma)
 
 
-def cd_h1(dwell: Dwell, steps_per_period: int) -> float:
-    """hertzsweep's central difference at N steps per period, through its own driver
-    (:meth:`Oscillator.dwell`): H1 is the kernels' lock-in over the measured periods."""
-    oscillator = _oscillator(dwell, int(steps_per_period))
+def cd_h1(dwell: Dwell, steps_per_period: int, method: str = "central-difference") -> float:
+    """hertzsweep's central difference (or another ``solver.method``) at N steps per
+    period, through its own driver (:meth:`Oscillator.dwell`): H1 is the kernels' lock-in
+    over the measured periods."""
+    oscillator = _oscillator(dwell, int(steps_per_period), method)
     w = dwell.frequency_ratio
     _, reading, _ = oscillator.dwell(oscillator.from_velocity(0.0, 0.0, w), w)
     return float(reading.amplitude[0])
@@ -493,6 +494,12 @@ def competitors() -> list[Competitor]:
             lambda n: f"N {n} + {2 * n}",
             RICHARDSON_LADDER,
             richardson_h1,
+        ),
+        Competitor(
+            "RK4 with contact events (hertzsweep rk4)",
+            "{} steps/period".format,
+            RK4_LADDER,
+            partial(cd_h1, method="rk4"),
         ),
         Competitor("RK4, fixed step (numba)", "{} steps/period".format, RK4_LADDER, rk4_h1),
         Competitor("solve_ivp DOP853", rtol, RTOL_LADDER, ivp_h1),

@@ -9,15 +9,15 @@ a :class:`Reading` (lock-in harmonics, force extremes, contact loss, periodicity
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
 from ..core.config import Scene
 from ..core.lockin import amplitude_phase
-from ..kernels import integrate, scheme, stop, tangent
-from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Drive, Readout
+from ..kernels import integrate, scheme, tangent
+from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Readout
 from ..kernels.laws import make_law
+from ..kernels.methods import METHODS, Method
 from .readings import READING_FIELDS, Readings
 
 PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period below which
@@ -25,23 +25,22 @@ PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period belo
 # the residual transient of a settled run, far below a period doubling's O(1) mismatch.
 
 
-@lru_cache(maxsize=8)
-def _tables(steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
-    return scheme.period_tables(steps_per_period)
+def method(scene: Scene) -> Method:
+    """The kernels of the scene's ``solver.method``."""
+    return METHODS[scene.solver.method]
 
 
-def drive(scene: Scene, sigma: np.ndarray | float) -> Drive:
-    """The kernels' :class:`~hertzsweep.kernels.integrate.Drive` of a scene at the input
-    levels ``sigma`` (one per trajectory)."""
-    sin_table, cos_table = _tables(int(scene.solver.steps_per_period))
-    harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
-    levels = np.atleast_1d(np.asarray(sigma, dtype=float))
-    return Drive(levels, sin_table, cos_table, harmonics, stop.REQUEST)
+def drive(scene: Scene, sigma: np.ndarray | float):
+    """The kernels' input (:class:`~hertzsweep.kernels.integrate.Drive` or the method's
+    own) of a scene at the input levels ``sigma`` (one per trajectory)."""
+    return method(scene).drive(sigma, scene.lockin.harmonics, int(scene.solver.steps_per_period))
 
 
 @dataclass(frozen=True)
 class State:
-    """Two consecutive displacements of the scheme at step ``h`` (in tau)."""
+    """The state at excitation phase 0 and step ``h`` (in tau): q and the method's other
+    variable ``q_prev`` (:mod:`hertzsweep.kernels.methods`: ``q[n-1]`` for the central
+    difference, ``q'`` for RK4)."""
 
     q_prev: float
     q: float
@@ -204,6 +203,7 @@ class Oscillator:
         self.zeta = float(scene.damping.ratio)
         self.law = make_law(scene.damping.law, scene.damping.ratio, scene.damping.exponent)
         self.steps_per_period = int(scene.solver.steps_per_period)
+        self.method = method(scene)
         self.drive = drive(scene, self.sigma)
         self.harmonics = self.drive.harmonics
         self.periodic_tolerance = max(PERIODIC_TOLERANCE_FLOOR, 10.0 * scene.sweep.tolerance)
@@ -219,14 +219,15 @@ class Oscillator:
 
     def from_velocity(self, q: float, velocity: float, frequency_ratio: float) -> State:
         h = self.step(frequency_ratio)
-        return State(integrate.start_from(q, velocity, h, self.law), q, h)
+        return State(self.method.start(q, velocity, h, self.law), q, h)
 
     def retune(self, state: State, frequency_ratio: float) -> State:
         """The same physical state at the step size of another frequency."""
         h = self.step(frequency_ratio)
         if h == state.h:
             return state
-        return State(integrate.restart(state.q_prev, state.q, state.h, h, self.law), state.q, h)
+        q_prev = self.method.restart(state.q_prev, state.q, state.h, h, self.law)
+        return State(q_prev, state.q, h)
 
     def check_status(self, status: int, frequency_ratio: float) -> None:
         """Raise the error a kernel status means (:data:`~hertzsweep.kernels.scheme.STATUS`)."""
@@ -237,7 +238,7 @@ class Oscillator:
         """Integrate whole periods (the state must be at this frequency's step)."""
         if periods <= 0:
             return state
-        q_prev, q, status = integrate.advance(
+        q_prev, q, status = self.method.advance(
             state.q_prev, state.q, state.h, self.law, self.drive, periods
         )
         self.steps += periods * self.steps_per_period
@@ -274,7 +275,7 @@ class Oscillator:
         )
         q_prev, q = np.array([state.q_prev]), np.array([state.q])
         h = np.array([state.h])
-        status, _ = integrate.measure_one(q_prev, q, h, self.law, self.drive, periods, buffers)
+        status, _ = self.method.measure_one(q_prev, q, h, self.law, self.drive, periods, buffers)
         self.steps += periods * self.steps_per_period
         self.check_status(status, frequency_ratio)
         block = Block.read(buffers, periods * self.steps_per_period, h, self.periodic_tolerance)

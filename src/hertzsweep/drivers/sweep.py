@@ -198,8 +198,9 @@ class Lockstep:
         self.q_prev = np.zeros(sigma.size)
         self.q = np.zeros(sigma.size)
         self.steps = 0
+        self.method = self.oscillators[0].method
         # one trajectory keeps its state in registers (the same numbers, bit for bit)
-        self.measure = integrate.measure_one if sigma.size == 1 else integrate.measure
+        self.measure = self.method.measure_one if sigma.size == 1 else self.method.measure
 
     def dwell(self, h_new: np.ndarray) -> tuple[int, int, Block | None, np.ndarray | None]:
         """Retune to ``h_new``, settle, measure. Returns ``(status, trajectory, block,
@@ -207,8 +208,8 @@ class Lockstep:
         sweep = self.scene.sweep
         n = self.oscillators[0].steps_per_period
         tolerance = self.oscillators[0].periodic_tolerance
-        integrate.retune_batch(self.q_prev, self.q, self.h, h_new, self.law)
-        status, bad = integrate.advance_batch(
+        self.method.retune_batch(self.q_prev, self.q, self.h, h_new, self.law)
+        status, bad = self.method.advance_batch(
             self.q_prev, self.q, self.h, self.law, self.drive, int(sweep.settle_periods)
         )
         self.steps += self.q.size * int(sweep.settle_periods) * n

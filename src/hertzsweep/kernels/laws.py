@@ -9,8 +9,8 @@ integrate (loss of contact when ``d <= 0``)::
 A law is a module-level namedtuple; numba specialises every kernel on the law's type, so
 the branches below are resolved at compile time (the viscous kernel has no branch on the
 law and its ``1 / (1 + c h / 2)`` is a loop invariant) and the compiled kernels are cached
-across processes. A new law is one more namedtuple and one more case in :func:`terms` and
-:func:`slopes`.
+across processes. A new law is one more namedtuple and one more case in :func:`terms`,
+:func:`slopes` and :func:`singular_exponent`.
 """
 
 from __future__ import annotations
@@ -66,6 +66,22 @@ def slopes(law, d, root):
     """``(dR/dd, dc/dd)`` for the tangent-linear scheme; zero out of contact (the jump of
     c at d = 0 for n = 0 has measure zero along a trajectory)."""
     raise NotImplementedError("compiled only")
+
+
+def singular_exponent(law):
+    """The exponent n of the contact law's ``d^n`` (whose fractional powers are singular at
+    ``d = 0``); -1 for a law whose damping does not depend on d."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(singular_exponent, inline="always")
+def _singular_exponent(law):
+    cls = _law_class(law)
+    if cls is Viscous:
+        return lambda law: -1.0
+    if cls is Contact or cls is ContactPower:
+        return lambda law: law.exponent
+    return None
 
 
 @overload(terms, inline="always")
@@ -138,4 +154,13 @@ def _slopes(law, d, root):
     return None
 
 
-__all__ = ["LAWS", "Contact", "ContactPower", "Viscous", "make_law", "slopes", "terms"]
+__all__ = [
+    "LAWS",
+    "Contact",
+    "ContactPower",
+    "Viscous",
+    "make_law",
+    "singular_exponent",
+    "slopes",
+    "terms",
+]

@@ -1,0 +1,472 @@
+"""A fourth-order method that keeps its order through loss of contact and impacts.
+
+The classical Runge-Kutta method (RK4) on the state ``(q, q')`` of eq. (8)/(11), N fixed
+steps a period (``solver.method = "rk4"``), with three additions at the contact crossings:
+
+1. **Crossings located and split.** The force ``[H(d) d]^(3/2)`` is smooth while ``d > 0``
+   but not at ``d = 0``, and the contact law's damping may jump there (n = 0). When the sign
+   of ``d`` differs at the two ends of a step, the crossing is located on the step's cubic
+   Hermite interpolant of q (bisection to round-off) and the step is taken again as two RK4
+   steps, to the crossing and from it, each with the law held on its own side of ``d = 0``
+   (a stage predicted across it does not switch law). A contact or a flight shorter than
+   one step, entered and left within it, is not seen.
+2. **Singular terms integrated exactly.** On the contact side of a crossing at ``tau_e``,
+   with ``s = |tau - tau_e|``, the compression is ``d = A s + B s^2 + ...`` with
+   ``A = 2 |q'_e| / 3`` and ``B = q''_e / 3``; the contact force then holds the terms
+   ``A^(3/2) s^(3/2)`` (Hertz) and, under the contact law, ``2 zeta A^n q'_e s^n`` and
+   ``2 zeta A^n (n B q'_e / A +- q''_e) s^(n+1)``. A fractional power below 5/2 leaves RK4's
+   quadrature an error of order ``h^(p+1)`` on every step near the crossing (their sum
+   converges to the same order), so the order would fall to 2.5. At each crossing the
+   difference between the exact integrals of these terms and RK4's quadrature of them over
+   the steps within :data:`WINDOW` on the contact side (the grid's steps, the split step's
+   part included) is added at once to ``(q, q')`` and to the lock-in's integrals. The
+   next terms (``s^(5/2)``) leave ``h^(7/2)``: the method's order through impacts is 3.5,
+   and 4 while the contact holds.
+3. **The lock-in as integrals.** The Fourier integrals of ``x = N/F_s - 1``
+   (``int x cos(k w tau)``, ``int x sin(k w tau)``) and its mean are extra states of the same
+   RK4 steps: each (sub)step adds Simpson's rule over its stages' values of x, the
+   substeps' phases from ``math``, the whole steps' from tables of ``sin``, ``cos(pi m /
+   N)`` (step ends and midpoints). They are reported divided by h, so that the readings
+   are formed exactly as the central difference's step sums (``2 / (P N)`` times the sum).
+   The time out of contact and the flights are measured between located crossings; the
+   extremes of N/F_s are read at the step ends and the crossings (second order in h at a
+   smooth extremum, as the central difference's).
+
+Without the event handling (``events = False`` in the drive, for tests) every step is
+taken whole: the order drops (to 2.5 for the Hertz force alone, to 1 where the damping
+jumps).
+
+The state crossing the boundary is ``(q', q)``: it does not depend on the step, so a
+frequency change needs no restart. Stability of the explicit method (undamped,
+linearised): ``h omega < 2 sqrt(2)`` (RK4's interval on the imaginary axis), with
+``omega^2 = sqrt(d)`` at the largest compression: 1.41 times the central difference's
+``h omega < 2``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from . import CACHE
+from .integrate import COUNT_FIELDS, SUM_FIELDS, TALLY_START, Readout, _finish, _sample
+from .laws import singular_exponent, terms
+from .scheme import NON_FINITE, OK, STOPPED, UNSTABLE, to_compression
+from .stop import requested
+
+Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "stop", "events"])
+"""The input and the lock-in of the RK4 kernels: as :class:`.integrate.Drive`, with tables
+of ``sin``/``cos(pi m / N)``, m = 0 .. 2N - 1 (the step ends and midpoints of a period of
+N steps), and ``events`` (bool: locate and split the crossings, integrate their singular
+terms; False only to show what that buys)."""
+
+STABILITY = 2.0 * math.sqrt(2.0)  # h omega below this: RK4's interval on the imaginary axis
+WINDOW = 1.0  # tau on the contact side of a crossing over which its singular terms are
+# integrated exactly: the steps beyond contribute O(h^4 WINDOW^(-3/2)) together, below the
+# method's own error; a longer window costs more steps of arithmetic at every crossing
+TINY = 1e-300  # a compression on the contact side of d = 0 whose force is nothing
+
+
+def tables(steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
+    """``sin``, ``cos`` of ``pi m / N``, m = 0 .. 2N - 1."""
+    angle = np.pi * np.arange(2 * steps_per_period) / steps_per_period
+    return np.sin(angle), np.cos(angle)
+
+
+@njit(cache=CACHE)
+def _acceleration(law, q, v, load, side):
+    """``(q'', x = N/F_s - 1, sqrt(d))`` at a state; ``side`` +1 (-1) holds the law on the
+    contact (flight) side of ``d = 0`` whatever side the state is on; 0 takes its side."""
+    d = to_compression(q)
+    if side > 0 and d <= 0.0:
+        d = TINY
+    elif side < 0 and d > 0.0:
+        d = 0.0
+    root, c = terms(law, d)
+    force = d * root + c * v
+    return load - force, force - 1.0, root
+
+
+@njit(cache=CACHE)
+def _rk4(law, q, v, h, loads, side):
+    """One RK4 step of ``h`` with the loads ``1 + sigma sin`` at its start, middle and end:
+    ``(q, q', (x1, x2, x3, x4), sqrt(d) at the start)``, x the stages' N/F_s - 1."""
+    a1, x1, root = _acceleration(law, q, v, loads[0], side)
+    q2, v2 = q + 0.5 * h * v, v + 0.5 * h * a1
+    a2, x2, _ = _acceleration(law, q2, v2, loads[1], side)
+    q3, v3 = q + 0.5 * h * v2, v + 0.5 * h * a2
+    a3, x3, _ = _acceleration(law, q3, v3, loads[1], side)
+    q4, v4 = q + h * v3, v + h * a3
+    a4, x4, _ = _acceleration(law, q4, v4, loads[2], side)
+    q_new = q + h / 6.0 * (v + 2.0 * (v2 + v3) + v4)
+    v_new = v + h / 6.0 * (a1 + 2.0 * (a2 + a3) + a4)
+    return q_new, v_new, (x1, x2, x3, x4), root
+
+
+@njit(cache=CACHE)
+def _crossing(q0, v0, q1, v1, h):
+    """The fraction of a step where its cubic Hermite interpolant of q crosses
+    ``q = -3/2`` (d = 0), by bisection (the ends are on either side)."""
+    lo, hi = 0.0, 1.0
+    below = q0 <= -1.5
+    for _ in range(60):
+        s = 0.5 * (lo + hi)
+        s2 = s * s
+        s3 = s2 * s
+        q = (
+            (2.0 * s3 - 3.0 * s2 + 1.0) * q0
+            + (s3 - 2.0 * s2 + s) * h * v0
+            + (3.0 * s2 - 2.0 * s3) * q1
+            + (s3 - s2) * h * v1
+        )
+        if (q <= -1.5) == below:
+            lo = s
+        else:
+            hi = s
+    return 0.5 * (lo + hi)
+
+
+@njit(cache=CACHE, inline="always")
+def _load(sigma, w, tau):
+    return 1.0 + sigma * math.sin(w * tau)
+
+
+@njit(cache=CACHE)
+def _singular_terms(law, v_e, a_e, direction):
+    """The fractional powers of ``s = |tau - tau_e|`` below 5/2 in the contact force near a
+    crossing at speed ``v_e`` and contact-side acceleration ``a_e`` (``direction`` +1: the
+    contact follows, an impact; -1: it precedes, a lift-off): ``((beta, p), ...)`` three
+    terms ``beta s^p`` (beta = 0 for a term the law does not have)."""
+    a = (2.0 / 3.0) * abs(v_e)
+    b = a_e / 3.0
+    hertz = (a * math.sqrt(a), 1.5)
+    n = singular_exponent(law)
+    if n < 0.0 or a <= 0.0:  # viscous: c q' is smooth
+        return hertz, (0.0, 1.0), (0.0, 1.0)
+    an = a**n
+    first = (law.twozeta * an * v_e, n) if (n != math.floor(n) and n < 2.5) else (0.0, 1.0)
+    p = n + 1.0
+    beta = law.twozeta * an * (n * b * v_e / a + direction * a_e)
+    second = (beta, p) if (p != math.floor(p) and p < 2.5) else (0.0, 1.0)
+    return hertz, first, second
+
+
+@njit(cache=CACHE, inline="always")
+def _defects(p, lo, hi, impact):
+    """For ``g = s^p`` over one step spanning ``lo <= s <= hi``: ``(D, Dq)``, the exact
+    integral of g minus RK4's quadrature of it (Simpson's rule) and the exact double
+    integral (the displacement it adds at the step's end) minus RK4's. ``impact``: s grows
+    with tau (the step starts at lo), else it falls (the step starts at hi)."""
+    g_lo, g_hi, g_mid = lo**p, hi**p, (0.5 * (lo + hi)) ** p
+    step = hi - lo
+    one = (hi ** (p + 1.0) - lo ** (p + 1.0)) / (p + 1.0)
+    two = (hi ** (p + 2.0) - lo ** (p + 2.0)) / (p + 2.0)
+    defect = one - step / 6.0 * (g_lo + 4.0 * g_mid + g_hi)
+    if impact:  # int (tau_b - tau) g: tau_b at hi
+        return defect, hi * one - two - step * step / 6.0 * (g_lo + 2.0 * g_mid)
+    return defect, two - lo * one - step * step / 6.0 * (g_hi + 2.0 * g_mid)
+
+
+@njit(cache=CACHE)
+def _correct(law, drive, h, crossing, first, reach, sums, fourier):
+    """The exact integrals of the singular terms of a crossing minus RK4's quadrature of
+    them (see the module docstring), over the steps from the crossing to the window's end
+    (or ``reach``, tau from the crossing to the previous crossing): returned as
+    ``(dq, dv)`` for the state at the crossing, and added to the integral of x (``sums[0]``)
+    and to its Fourier integrals (``fourier``, when it has rows), all divided by h.
+
+    ``crossing = (tau_e, v_e, a_e, direction, w)``; ``first``: the length of the split
+    step's part on the contact side."""
+    tau_e, v_e, a_e, direction, w = crossing
+    impact = direction > 0.0
+    dq = 0.0
+    dv = 0.0
+    terms3 = _singular_terms(law, v_e, a_e, direction)
+    lo, hi = 0.0, first
+    limit = min(WINDOW, reach)
+    while True:
+        for beta, p in terms3:
+            if beta == 0.0:
+                continue
+            defect, shift = _defects(p, lo, hi, impact)
+            tau_b_from_e = hi if impact else -lo  # tau_b - tau_e
+            dv -= beta * defect
+            dq -= beta * (shift - defect * tau_b_from_e)
+            sums[0] += beta * defect / h
+            if fourier.shape[0] > 0:
+                slope, _ = _defects(p + 1.0, lo, hi, impact)
+                for i in range(fourier.shape[0]):
+                    kw = drive.harmonics[i] * w
+                    c, s = math.cos(kw * tau_e), math.sin(kw * tau_e)
+                    # x cos(k w tau) with cos(k w (tau_e + direction s)) to first order in s
+                    fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) / h
+                    fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) / h
+        if hi >= limit:
+            return dq, dv
+        lo, hi = hi, min(hi + h, reach)
+
+
+@njit(cache=CACHE, inline="always")
+def _simpson(fourier, index, shift, drive, x, weight):
+    """Add Simpson's rule over a whole step's stages to the Fourier integrals (``weight`` =
+    1/6: integral / h), the phases at table positions ``index``, ``+shift``, ``+2 shift``."""
+    n2 = drive.sin_table.shape[0]
+    for i in range(index.shape[0]):
+        i0 = index[i]
+        im = i0 + shift[i]
+        im = im - n2 if im >= n2 else im
+        i1 = im + shift[i]
+        i1 = i1 - n2 if i1 >= n2 else i1
+        xm = x[1] + x[2]
+        fourier[i, 0] += weight * (
+            x[0] * drive.cos_table[i0] + 2.0 * xm * drive.cos_table[im] + x[3] * drive.cos_table[i1]
+        )
+        fourier[i, 1] += weight * (
+            x[0] * drive.sin_table[i0] + 2.0 * xm * drive.sin_table[im] + x[3] * drive.sin_table[i1]
+        )
+        index[i] = i1
+
+
+@njit(cache=CACHE, inline="always")
+def _simpson_at(fourier, drive, x, tau, step, w, weight):
+    """Simpson's rule over a substep from ``tau`` (phases from ``math``)."""
+    for i in range(fourier.shape[0]):
+        kw = drive.harmonics[i] * w
+        t0, tm, t1 = kw * tau, kw * (tau + 0.5 * step), kw * (tau + step)
+        c0, cm, c1 = math.cos(t0), math.cos(tm), math.cos(t1)
+        s0, sm, s1 = math.sin(t0), math.sin(tm), math.sin(t1)
+        xm = 2.0 * (x[1] + x[2])
+        fourier[i, 0] += weight * (x[0] * c0 + xm * cm + x[3] * c1)
+        fourier[i, 1] += weight * (x[0] * s0 + xm * sm + x[3] * s1)
+
+
+@njit(cache=CACHE)
+def _split(law, drive, step, q, v, sums, fourier):
+    """The step of ``step = (h, w, sigma, j, fraction, inside, reach)`` from ``(q, q')``
+    taken as two RK4 steps, to the crossing at ``fraction`` of it and from it, the
+    singular terms' correction (:func:`_correct`) added at the crossing; each part's
+    quadrature added to ``sums`` and ``fourier`` (when it has rows). Returns ``(q, q',
+    x at the crossing)``."""
+    h, w, sigma, j, fraction, inside, reach = step
+    side = 1 if inside else -1
+    first = fraction * h
+    second = h - first
+    t0 = j * h
+    tau_e = t0 + first
+    loads = (_load(sigma, w, t0), _load(sigma, w, t0 + 0.5 * first), _load(sigma, w, tau_e))
+    q, v, x, _ = _rk4(law, q, v, first, loads, side)
+    _quadrature(sums, fourier, drive, x, (t0, first, w, h))
+    # the contact side's acceleration at the crossing (there the force is c(0+) q')
+    a_e, x_e, _ = _acceleration(law, -1.5, v, loads[2], 1)
+    direction = -1.0 if inside else 1.0
+    crossing = (tau_e, v, a_e, direction, w)
+    contact = second if direction > 0.0 else first
+    dq, dv = _correct(law, drive, h, crossing, contact, reach, sums, fourier)
+    loads = (loads[2], _load(sigma, w, tau_e + 0.5 * second), _load(sigma, w, t0 + h))
+    q, v, x, _ = _rk4(law, q + dq, v + dv, second, loads, -side)
+    _quadrature(sums, fourier, drive, x, (tau_e, second, w, h))
+    return q, v, x_e
+
+
+@njit(cache=CACHE, inline="always")
+def _quadrature(sums, fourier, drive, x, span):
+    """Simpson's rule over the stages x of a part ``span = (tau, step, w, h)`` of a step,
+    added (divided by h) to the integral of x and to its Fourier integrals."""
+    tau, step, w, h = span
+    weight = step / (6.0 * h)
+    sums[0] += weight * (x[0] + 2.0 * (x[1] + x[2]) + x[3])
+    _simpson_at(fourier, drive, x, tau, step, w, weight)
+
+
+@njit(cache=CACHE, inline="always")
+def _flight(flights, now, lift_off):
+    """A crossing at ``now`` into ``flights`` = (start of the current flight or -1, 0 if
+    the periods started in flight else -1, end of that first flight or -1, the longest
+    flight within the periods, the time in flight)."""
+    if lift_off:
+        flights[0] = now
+    elif flights[0] >= 0.0:  # an impact, after a flight of now - start
+        flights[4] += now - flights[0]
+        if flights[0] == flights[1] and flights[2] < 0.0:
+            flights[2] = now  # may join the flight the periods end in
+        else:
+            flights[3] = max(flights[3], now - flights[0])
+        flights[0] = -1.0
+
+
+@njit(cache=CACHE)
+def _flight_counts(flights, end, h, samples):
+    """``(loss, longest, lead, trail)`` of :data:`.integrate.COUNT_FIELDS` (in steps h) of
+    the flights over periods ending at ``end``: the central difference's contract."""
+    start, initial, lead, longest, loss = flights
+    trail = (end - start) / h if start >= 0.0 else 0.0
+    loss += end - start if start >= 0.0 else 0.0
+    if initial < 0.0:
+        lead = 0.0
+    elif lead < 0.0:  # never in contact
+        return loss / h, longest / h, float(samples), float(samples)
+    else:
+        lead = lead / h
+    return loss / h, longest / h, lead, trail
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def _run(law, drive, t, h, state, periods, out, measuring):
+    """Whole periods of trajectory t (``drive.sigma[t]``, step h) from ``state[:, t]`` =
+    ``(q', q)`` at phase 0, in place; when ``measuring``, read into column t of ``out``
+    (:class:`.integrate.Readout`, flight times and sums divided by h). Returns the status
+    (:data:`.scheme.STATUS`)."""
+    n = drive.sin_table.shape[0] // 2
+    n2 = 2 * n
+    w = 2.0 * math.pi / (n * h)
+    sigma = drive.sigma[t]
+    v, q = state[0, t], state[1, t]
+    limit = 8.0 / (h * h)  # (h omega)^2 < 8 with omega^2 = sqrt(d)
+    peak = 0.0
+    k = drive.harmonics.shape[0] if measuring else 0
+    fourier = np.zeros((k, 2))
+    index = np.zeros(k, dtype=np.int64)
+    shift = np.empty(k, dtype=np.int64)
+    for i in range(k):
+        shift[i] = drive.harmonics[i] % n2
+    sums = np.zeros(1)  # the integral of x, divided by h
+    acc = TALLY_START  # only its extremes are used: the flights are timed here
+    start = 0.0 if to_compression(q) <= 0.0 else -1.0
+    flights = np.array([start, start, -1.0, 0.0, 0.0])  # see _flight
+    last_crossing = -np.inf
+    history = (np.nan, np.nan)  # x at the two grid points before (NaN: none on this side)
+    sample = 0
+    for p in range(periods):
+        if measuring and p == periods - 1:
+            out.sums[3, t], out.sums[4, t] = v, q
+        index[:] = 0
+        for j in range(n):
+            loads = (
+                1.0 + sigma * drive.sin_table[2 * j],
+                1.0 + sigma * drive.sin_table[2 * j + 1],
+                1.0 + sigma * drive.sin_table[(2 * j + 2) % n2],
+            )
+            inside = to_compression(q) > 0.0
+            q1, v1, x, root = _rk4(law, q, v, h, loads, (1 if inside else -1) * drive.events)
+            peak = root if root > peak else peak
+            if measuring:
+                acc = _extremes(acc, history, x[0])
+                history = (history[1], x[0])
+                if out.stride > 0 and (p * n + j) % out.stride == 0:
+                    _sample(out.record[sample, :, t], to_compression(q), v, x[0])
+                    sample += 1
+            crossed = (to_compression(q1) > 0.0) != inside
+            if not crossed or not drive.events:
+                if measuring:
+                    sums[0] += (x[0] + 2.0 * (x[1] + x[2]) + x[3]) / 6.0
+                    _simpson(fourier, index, shift, drive, x, 1.0 / 6.0)
+                q, v, q_old, v_old = q1, v1, q, v
+                if not crossed:
+                    continue
+                fraction = _crossing(q_old, v_old, q1, v1, h)
+            else:
+                fraction = _crossing(q, v, q1, v1, h)
+                reach = p * n * h + (j + fraction) * h - last_crossing if inside else np.inf
+                step = (h, w, sigma, j, fraction, inside, reach)
+                q, v, x_e = _split(law, drive, step, q, v, sums, fourier)
+                acc = _extremes(acc, (np.nan, np.nan), x_e)
+                for i in range(k):  # the table positions of the next step
+                    index[i] = (drive.harmonics[i] * 2 * (j + 1)) % n2
+            last_crossing = p * n * h + (j + fraction) * h
+            _flight(flights, last_crossing, inside)
+            history = (np.nan, np.nan)  # no parabola across the kink
+        status = _rk_status(v, q, peak, limit, drive.stop)
+        if status != OK:
+            state[0, t], state[1, t] = v, q
+            return status
+    state[0, t], state[1, t] = v, q
+    if measuring:
+        loss, longest, lead, trail = _flight_counts(flights, periods * n * h, h, periods * n)
+        acc = (sums[0], acc[1], acc[2], loss, longest, lead, trail)
+        _finish(out, t, acc, fourier[:, 0], fourier[:, 1])
+        out.sums[5, t], out.sums[6, t] = v, q
+    return OK
+
+
+@njit(cache=CACHE, inline="always")
+def _extremes(acc, history, x):
+    """The running sums of :func:`.integrate.tally` with only the extremes of x updated: by
+    x, and where the grid point before (``history[1]``) is a local extremum, by the vertex
+    of the parabola through it and its neighbours (third order in h, where the samples
+    alone are second)."""
+    a, b = history
+    high, low = max(acc[1], x), min(acc[2], x)
+    curvature = a - 2.0 * b + x
+    if (b >= a and b >= x) or (b <= a and b <= x):  # False with a NaN
+        if curvature != 0.0:
+            vertex = b - (a - x) * (a - x) / (8.0 * curvature)
+            high, low = max(high, vertex), min(low, vertex)
+    return (acc[0], high, low, acc[3], acc[4], acc[5], acc[6])
+
+
+@njit(cache=CACHE)
+def _rk_status(v, q, peak, limit, stop):
+    if peak >= limit:
+        return UNSTABLE
+    if not (math.isfinite(q) and math.isfinite(v)):
+        return NON_FINITE
+    if requested(stop):
+        return STOPPED
+    return OK
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def _each(v, q, h, law, drive, periods, readout, measuring):
+    """:func:`_run` for trajectory after trajectory, in place on ``v`` and ``q`` (left as
+    they were when one fails). Returns ``(status, trajectory)``."""
+    state = np.empty((2, q.shape[0]))
+    state[0, :] = v
+    state[1, :] = q
+    for t in range(q.shape[0]):
+        status = _run(law, drive, t, h[t], state, periods, readout, measuring)
+        if status != OK:
+            return status, t
+    v[:] = state[0]
+    q[:] = state[1]
+    return OK, -1
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def measure(v, q, h, law, drive, periods, readout):
+    """Whole periods of T trajectories, in place on ``v`` (q') and ``q``, read into
+    ``readout``: :func:`.integrate.measure`'s contract (one trajectory after another, each
+    the numbers of a batch of one). Returns ``(status, trajectory)``."""
+    return _each(v, q, h, law, drive, periods, readout, True)
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def advance_batch(v, q, h, law, drive, periods):
+    """Whole periods of T trajectories without reading them
+    (:func:`.integrate.advance_batch`'s contract)."""
+    return _each(v, q, h, law, drive, periods, _no_readout(q.shape[0]), False)
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def advance(v, q, h, law, drive, periods):
+    """Whole periods of one trajectory (``drive.sigma[0]``): ``(v, q, status)``, as
+    :func:`.integrate.advance`."""
+    state = np.empty((2, 1))
+    state[0, 0] = v
+    state[1, 0] = q
+    status = _run(law, drive, 0, h, state, periods, _no_readout(1), False)
+    return state[0, 0], state[1, 0], status
+
+
+@njit(cache=CACHE)
+def _no_readout(trajectories):
+    """A readout with no harmonics and no record (advancing without reading)."""
+    return Readout(
+        np.zeros((0, 2, trajectories)),
+        np.zeros((len(SUM_FIELDS), trajectories)),
+        np.zeros((len(COUNT_FIELDS), trajectories)),
+        np.zeros((0, 4, trajectories)),
+        0,
+    )
