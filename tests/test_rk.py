@@ -13,7 +13,7 @@ from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import StabilityError
 
 from .analytic import linear_response
-from .conftest import make_scene
+from .conftest import CONFIGS, make_scene, run_cli
 
 # the issue's two dwells: no loss of contact (sigma = 1 %, viscous zeta = 0.45 %) and
 # vibro-impact (sigma = 7.8 %, zeta = 1 %, contact law n = 3/2, 21 % of the time in flight
@@ -144,3 +144,23 @@ def test_the_kernel_refuses_a_step_beyond_rk4s_bound():
     assert osc.step(w) == pytest.approx(np.pi)  # h omega = pi > 2 sqrt(2)
     with pytest.raises(StabilityError, match="beyond the stability limit"):
         osc.advance(osc.rest(w), w, 1)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["sweep", "--set", "sweep.steady_state=shooting"],
+        ["branch"],
+    ],
+    ids=["shooting-sweep", "branch"],
+)
+def test_shooting_refuses_rk4_in_one_line(argv, capsys, tmp_path):
+    # rk4's one-period map has no Jacobian yet: a clear refusal before any work, exit 2
+    scene = CONFIGS / "default.toml"
+    out = tmp_path / "out.nc"
+    command = [argv[0], scene, *argv[1:], "--set", "solver.method=rk4", "-o", out]
+    code, _, err = run_cli(command, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "solver.method: rk4 has no one-period Jacobian" in lines[0]
+    assert not out.exists()
