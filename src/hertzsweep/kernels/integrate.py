@@ -36,11 +36,12 @@ from .scheme import (
     forcing,
     make_step,
     make_steps,
+    period_tables,
     to_compression,
     to_displacement,
     update,
 )
-from .stop import requested
+from .stop import REQUEST, requested
 
 Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "stop"])
 """The input and the lock-in: ``sigma`` float[T] (input level of each trajectory),
@@ -421,6 +422,16 @@ def start_from(q, velocity, h, law):
     acceleration = 1.0 - to_compression(q) * root - c * velocity
     return q - h * velocity + 0.5 * h * h * acceleration
 
+
+tables = period_tables  # the per-period tables of the excitation and the lock-in
+
+
+def inputs(sigma, sin_table, cos_table, harmonics):
+    """The :class:`Drive` of the levels ``sigma`` (float[T])."""
+    return Drive(sigma, sin_table, cos_table, harmonics, REQUEST)
+
+
+start = start_from  # the state's other member, q[-1], at (q, q')
 
 __all__ = [
     "COUNT_FIELDS",

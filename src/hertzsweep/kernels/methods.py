@@ -22,25 +22,44 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import integrate, rk, scheme, stop
+from . import integrate, rk
+
+KERNELS = (
+    "advance",
+    "advance_batch",
+    "measure",
+    "measure_one",
+    "tables",
+    "inputs",
+    "start",
+    "restart",
+    "retune_batch",
+)
+"""What every method's kernel module defines, under these names (the module docstring)."""
 
 
 @dataclass(frozen=True)
 class Method:
-    """One integration method's kernels (see the module docstring)."""
+    """One integration method's kernels (see the module docstring); ``inputs(sigma,
+    sin_table, cos_table, harmonics)`` builds the kernels' drive."""
 
     name: str
     order: str  # for the reader: the order of the readings in h
+    tangent: bool
     advance: Callable
     advance_batch: Callable
     measure: Callable
     measure_one: Callable
     tables: Callable[[int], tuple[np.ndarray, np.ndarray]]
-    inputs: Callable  # (sigma, sin_table, cos_table, harmonics) -> the kernels' drive
+    inputs: Callable
     start: Callable
     restart: Callable
     retune_batch: Callable
-    tangent: bool
+
+    @classmethod
+    def of(cls, name: str, order: str, module, tangent: bool) -> Method:
+        """The method whose kernels are ``module``'s :data:`KERNELS`."""
+        return cls(name, order, tangent, **{kernel: getattr(module, kernel) for kernel in KERNELS})
 
     def drive(self, sigma, harmonics, steps_per_period: int):
         """The kernels' input at the levels ``sigma`` (one per trajectory)."""
@@ -54,57 +73,9 @@ def _tables(name: str, steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
     return METHODS[name].tables(steps_per_period)
 
 
-def _same(a, q, h_old, h_new, law):
-    """``q'`` is the same at any step."""
-    return a
-
-
-def _retune_steps(a, q, h, h_new, law):
-    """Every trajectory's step becomes ``h_new`` (the state is unchanged)."""
-    h[:] = h_new
-
-
-def _velocity(q, velocity, h, law):
-    return velocity
-
-
-def _central_inputs(sigma, sin_table, cos_table, harmonics):
-    return integrate.Drive(sigma, sin_table, cos_table, harmonics, stop.REQUEST)
-
-
-def _rk_inputs(sigma, sin_table, cos_table, harmonics):
-    return rk.Drive(sigma, sin_table, cos_table, harmonics, stop.REQUEST, True)
-
-
 METHODS = {
-    "central-difference": Method(
-        name="central-difference",
-        order="2",
-        advance=integrate.advance,
-        advance_batch=integrate.advance_batch,
-        measure=integrate.measure,
-        measure_one=integrate.measure_one,
-        tables=scheme.period_tables,
-        inputs=_central_inputs,
-        start=integrate.start_from,
-        restart=integrate.restart,
-        retune_batch=integrate.retune_batch,
-        tangent=True,
-    ),
-    "rk4": Method(
-        name="rk4",
-        order="4 in contact, 3.5 through impacts (rk.py)",
-        advance=rk.advance,
-        advance_batch=rk.advance_batch,
-        measure=rk.measure,
-        measure_one=rk.measure,
-        tables=rk.tables,
-        inputs=_rk_inputs,
-        start=_velocity,
-        restart=_same,
-        retune_batch=_retune_steps,
-        tangent=False,
-    ),
+    "central-difference": Method.of("central-difference", "2", integrate, tangent=True),
+    "rk4": Method.of("rk4", "4 in contact, 3.5 through impacts", rk, tangent=False),
 }
 
-__all__ = ["METHODS", "Method"]
+__all__ = ["KERNELS", "METHODS", "Method"]

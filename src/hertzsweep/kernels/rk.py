@@ -52,10 +52,18 @@ import numpy as np
 from numba import njit
 
 from . import CACHE
-from .integrate import COUNT_FIELDS, SUM_FIELDS, TALLY_START, Readout, _finish, _sample
+from .integrate import (
+    COUNT_FIELDS,
+    SUM_FIELDS,
+    TALLY_START,
+    Readout,
+    _finish,
+    _sample,
+    _status,
+)
 from .laws import singular_exponent, terms
-from .scheme import NON_FINITE, OK, STOPPED, UNSTABLE, to_compression
-from .stop import requested
+from .scheme import OK, to_compression
+from .stop import REQUEST
 
 Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "stop", "events"])
 """The input and the lock-in of the RK4 kernels: as :class:`.integrate.Drive`, with tables
@@ -63,7 +71,6 @@ of ``sin``/``cos(pi m / N)``, m = 0 .. 2N - 1 (the step ends and midpoints of a 
 N steps), and ``events`` (bool: locate and split the crossings, integrate their singular
 terms; False only to show what that buys)."""
 
-STABILITY = 2.0 * math.sqrt(2.0)  # h omega below this: RK4's interval on the imaginary axis
 WINDOW = 1.0  # tau on the contact side of a crossing over which its singular terms are
 # integrated exactly: the steps beyond contribute O(h^4 WINDOW^(-3/2)) together, below the
 # method's own error; a longer window costs more steps of arithmetic at every crossing
@@ -324,7 +331,7 @@ def _run(law, drive, t, h, state, periods, out, measuring):
     w = 2.0 * math.pi / (n * h)
     sigma = drive.sigma[t]
     v, q = state[0, t], state[1, t]
-    limit = 8.0 / (h * h)  # (h omega)^2 < 8 with omega^2 = sqrt(d)
+    limit = 8.0 / (h * h)  # (h omega)^2 < 8 with omega^2 = sqrt(d): core.model.STABILITY
     peak = 0.0
     k = drive.harmonics.shape[0] if measuring else 0
     fourier = np.zeros((k, 2))
@@ -378,7 +385,7 @@ def _run(law, drive, t, h, state, periods, out, measuring):
             last_crossing = p * n * h + (j + fraction) * h
             _flight(flights, last_crossing, inside)
             history = (np.nan, np.nan)  # no parabola across the kink
-        status = _rk_status(v, q, peak, limit, drive.stop)
+        status = _status(to_compression(v), to_compression(q), peak, limit, drive.stop)
         if status != OK:
             state[0, t], state[1, t] = v, q
             return status
@@ -405,17 +412,6 @@ def _extremes(acc, history, x):
             vertex = b - (a - x) * (a - x) / (8.0 * curvature)
             high, low = max(high, vertex), min(low, vertex)
     return (acc[0], high, low, acc[3], acc[4], acc[5], acc[6])
-
-
-@njit(cache=CACHE)
-def _rk_status(v, q, peak, limit, stop):
-    if peak >= limit:
-        return UNSTABLE
-    if not (math.isfinite(q) and math.isfinite(v)):
-        return NON_FINITE
-    if requested(stop):
-        return STOPPED
-    return OK
 
 
 @njit(cache=CACHE, error_model="numpy", nogil=True)
@@ -470,3 +466,26 @@ def _no_readout(trajectories):
         np.zeros((0, 4, trajectories)),
         0,
     )
+
+
+measure_one = measure  # one trajectory is a batch of one (the same numbers)
+
+
+def inputs(sigma, sin_table, cos_table, harmonics):
+    """The :class:`Drive` of the levels ``sigma`` with the events handled."""
+    return Drive(sigma, sin_table, cos_table, harmonics, REQUEST, True)
+
+
+def start(q, velocity, h, law):
+    """The state's other member at ``(q, q')``: q' itself."""
+    return velocity
+
+
+def restart(v, q, h_old, h_new, law):
+    """q' is the same at any step."""
+    return v
+
+
+def retune_batch(v, q, h, h_new, law):
+    """Every trajectory's step becomes ``h_new``; the state ``(q', q)`` is unchanged."""
+    h[:] = h_new
