@@ -39,7 +39,7 @@ def _advance(periods):
 
 
 def _approach(periods):  # tolerance 0: never close, so only a stop ends it early
-    return integrate.approach(0.0, 0.0, H, _law(), _drive(0.01), 100, periods, 0.0)[3]
+    return tangent.approach(0.0, 0.0, H, _law(), _drive(0.01), 100, periods, 0.0)[3]
 
 
 def _advance_batch(periods):

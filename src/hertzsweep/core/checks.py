@@ -32,7 +32,6 @@ import numpy as np
 
 from ..errors import ConfigError
 from .config import (
-    SHOOTING_METHODS,
     DampingConfig,
     ExcitationConfig,
     RigConfig,
@@ -212,20 +211,6 @@ def check_steps_per_period(scene: Scene) -> None:
         )
 
 
-def check_method(scene: Scene, shooting: bool = False) -> None:
-    """A steady state by shooting (``sweep.steady_state``, or ``shooting`` for a command
-    that always shoots: ``branch``) needs a method with the one-period map's Jacobian
-    (:data:`~hertzsweep.core.config.SHOOTING_METHODS`)."""
-    method = scene.solver.method
-    if (shooting or scene.sweep.steady_state == "shooting") and method not in SHOOTING_METHODS:
-        raise ConfigError(
-            scene.source,
-            "solver.method",
-            f'{method} has no one-period Jacobian for shooting (steady_state = "shooting", '
-            f'branch): use {" or ".join(SHOOTING_METHODS)}, or steady_state = "settle"',
-        )
-
-
 def check_harmonics(scene: Scene) -> None:
     """Every lock-in harmonic k below the Nyquist order: ``k < steps_per_period / 2``.
 
@@ -399,7 +384,6 @@ def preflight(scene: Scene) -> Figures:
     check_rig(scene.rig, rig_source(scene))
     grid = check_grid(scene)
     check_steps_per_period(scene)
-    check_method(scene)
     limit = check_stability_limit(scene)
     check_harmonics(scene)
     steps = check_steps(scene, grid.size)

@@ -33,7 +33,6 @@ DAMPING_LAWS = ("viscous", "contact")
 DIRECTIONS = ("up", "down")
 STEADY_STATE_METHODS = ("settle", "shooting")
 SOLVER_METHODS = ("central-difference", "rk4")  # hertzsweep.kernels.methods.METHODS
-SHOOTING_METHODS = ("central-difference",)  # those with the one-period map's Jacobian
 # The largest input file (scene, rig, study) read: the largest shipped file is under 2 kB
 # and a study's grid of a thousand values is under 20 kB, so 1 MiB leaves room for any
 # real file while a wrong path (a log, an image, a disk image) is refused before it is read.

@@ -46,7 +46,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
-from ..core.checks import check_method
 from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import ConvergenceError, HertzsweepError
@@ -764,11 +763,7 @@ def run_branch(
     ConvergenceError
         A continuation could not start (no periodic orbit at the first frequency). A
         branch that stops short is returned as it is (``Branch.end``).
-    ConfigError
-        The scene's method has no one-period Jacobian
-        (:func:`~hertzsweep.core.checks.check_method`).
     """
-    check_method(scene, shooting=True)
     check_stability(scene)
     w_begin, w_end = start_end(scene)
     branches = []

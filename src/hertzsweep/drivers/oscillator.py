@@ -14,7 +14,7 @@ import numpy as np
 
 from ..core.config import Scene
 from ..core.lockin import amplitude_phase
-from ..kernels import integrate, scheme, tangent
+from ..kernels import integrate, scheme
 from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Readout
 from ..kernels.laws import make_law
 from ..kernels.methods import METHODS, Method
@@ -246,9 +246,10 @@ class Oscillator:
         return State(q_prev, q, state.h)
 
     def period_map(self, state: State, derivative: np.ndarray) -> tuple[State, int]:
-        """One period of the tangent-linear scheme from ``state``; ``derivative`` (float[2, 3])
-        receives ``d(q[N-1], q[N]) / d(q[-1], q[0], h)``. Returns the state and the status."""
-        q_prev, q, status = tangent.period_map(
+        """One period of the method's map from ``state`` with its exact derivatives;
+        ``derivative`` (float[2, 3]) receives ``d(q_prev, q)[N] / d(q_prev[0], q[0], h)``
+        (:mod:`hertzsweep.kernels.methods`). Returns the state and the status."""
+        q_prev, q, status = self.method.period_map(
             state.q_prev, state.q, state.h, self.law, self.drive, derivative
         )
         self.steps += self.steps_per_period

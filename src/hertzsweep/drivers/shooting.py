@@ -1,23 +1,25 @@
-"""Periodic orbits by shooting: Newton on the one-period map of the central-difference scheme.
+"""Periodic orbits by shooting: Newton on the one-period map of the scene's method.
 
-A T-periodic response (``T = 2 pi / w``) of the scheme is a fixed point ``x = P(x)`` of its
-one-period map, the state being the pair ``x = (q[-1], q[0])`` at excitation phase 0 and
-step ``h = 2 pi / (w N)`` (:mod:`hertzsweep.tangent`). Newton's method with the exact
-Jacobian of the discrete map,
+A T-periodic response (``T = 2 pi / w``) of the method is a fixed point ``x = P(x)`` of its
+one-period map, the state being the method's pair at excitation phase 0 and step ``h =
+2 pi / (w N)``: ``x = (q[-1], q[0])`` for the central difference, ``(q'[0], q[0])`` for
+rk4 (:mod:`hertzsweep.kernels.methods`). Newton's method with the exact Jacobian of the
+discrete map,
 
     (M - I) dx = -(P(x) - x),    M = dP/dx  (the monodromy matrix),
 
-converges quadratically, and its fixed point is the very state a long settled run of
-:func:`hertzsweep.kernels.integrate.advance` tends to (the same step, bit for bit). The Floquet
-multipliers are the eigenvalues of M; the orbit is asymptotically stable when both lie
-inside the unit circle.
+converges quadratically, and its fixed point is the very state a long settled run of the
+method's ``advance`` tends to (the same arithmetic, bit for bit). The Floquet multipliers
+are the eigenvalues of M; the orbit is asymptotically stable when both lie inside the
+unit circle.
 
 Coordinates. Residuals are measured in units of the orbit scale ``Q`` (:func:`orbit_scale`,
 the linear resonance amplitude ``sigma / (2 zeta)``), and the continuation works in the
-scaled coordinates ``z = (q[0], (q[0] - q[-1]) / theta) / Q`` with ``theta = w h = 2 pi / N``:
-displacement and velocity over w at phase 0, both of the order of the response amplitude
-over Q. ``x = B z`` with the constant matrix ``B = Q [[1, -theta], [1, 0]]``; the
-multipliers do not depend on the coordinates.
+method's scaled coordinates ``z`` with ``x = Q B z`` (``B`` constant, the method's
+``basis``): for the central difference ``z = (q[0], (q[0] - q[-1]) / theta) / Q`` with
+``theta = w h = 2 pi / N``, for rk4 ``z = (q[0], q'[0]) / Q``; displacement and velocity
+at phase 0, both of the order of the response amplitude over Q. The multipliers do not
+depend on the coordinates.
 
 Shooting-accelerated sweeps (:func:`shooting_dwell`): at each frequency step, Newton from
 the previous steady state; if it lands on a stable orbit, measure on it; otherwise a fold
@@ -32,7 +34,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.model import force_bound
-from ..kernels import integrate, tangent
+from ..kernels import tangent
 from ..kernels.integrate import Readout, new_readout
 from ..kernels.scheme import OK
 from ..kernels.tangent import CONVERGED_PERIODS, NewtonSettings
@@ -58,7 +60,7 @@ class Evaluation:
     jacobian : float[2, 3]
         ``dG / d(z1, z2, w)``.
     monodromy : float[2, 2]
-        ``M = dP/dx`` (in the state coordinates ``(q[-1], q[0])``).
+        ``M = dP/dx`` (in the method's state coordinates).
     ok : bool
         The period ended finite and within the stability limit.
     """
@@ -127,8 +129,8 @@ class PeriodMap:
     def __init__(self, oscillator: Oscillator) -> None:
         self.oscillator = oscillator
         self.scale = orbit_scale(oscillator.sigma, oscillator.zeta)
-        theta = 2.0 * np.pi / oscillator.steps_per_period
-        self.basis = self.scale * np.array([[1.0, -theta], [1.0, 0.0]])  # x = basis @ z
+        self.shape = oscillator.method.basis(oscillator.steps_per_period)
+        self.basis = self.scale * self.shape  # x = basis @ z
         self.inverse = np.linalg.inv(self.basis)
         self._derivative = np.zeros((2, 3))
 
@@ -160,9 +162,8 @@ def newton_settings(
     period: PeriodMap, monotone: bool, max_iterations: int = MAX_NEWTON_ITERATIONS
 ) -> NewtonSettings:
     """The compiled Newton's settings for an oscillator's period map."""
-    theta = 2.0 * np.pi / period.oscillator.steps_per_period
     return NewtonSettings(
-        period.scale, theta, NEWTON_TOLERANCE, max_iterations, monotone, STABILITY_MARGIN
+        period.scale, period.shape, NEWTON_TOLERANCE, max_iterations, monotone, STABILITY_MARGIN
     )
 
 
@@ -220,7 +221,7 @@ def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods:
     orbit = None
     tolerance = TRANSIENT_TOLERANCE * period.scale
     while periods < max_periods:
-        q_prev, q, done, status, close = integrate.approach(
+        q_prev, q, done, status, close = tangent.approach(
             state.q_prev, state.q, state.h, osc.law, osc.drive, TRANSIENT_BLOCK,
             max_periods - periods, tolerance,
         )  # fmt: skip

@@ -5,11 +5,12 @@ namedtuple types, :mod:`hertzsweep.kernels.laws`) and caches the machine code on
 a fresh install therefore pays about 1.5 s of compilation on each command's first run,
 and the test suite about a minute in all. ``python -m hertzsweep.drivers.warm`` (run by
 ``make install``) runs tiny scenes through every driver path (the sweep in lockstep and
-one trajectory at a time, automatic settling, shooting, a trace, a branch; the sweeps
-also with ``rk4``) for every law type, one group of laws per process, so that the
-compilation is paid once, at install, spread over the cores. It changes no result: the
-cache holds what the first run would have compiled. :func:`load_kernels` loads a sweep
-case's kernels from that cache (a study's workers call it as they start).
+one trajectory at a time, automatic settling, shooting, a trace, a branch; sweeps,
+shooting and a branch also with ``rk4``) for every law type, one group of laws per
+process, so that the compilation is paid once, at install, spread over the cores. It
+changes no result: the cache holds what the first run would have compiled.
+:func:`load_kernels` loads a sweep case's kernels from that cache (a study's workers
+call it as they start).
 """
 
 from __future__ import annotations
@@ -48,10 +49,13 @@ def compile_law(law: str, exponent: float) -> str:
     for sweep in (automatic, shooting):
         run_sweep(replace(scene, sweep=sweep))
     run_trace(scene, 0.92, periods=2)
+    short = replace(scene.sweep, start=0.9, stop=0.92, step=0.01)
+    run_branch(replace(scene, sweep=short))
     rk4 = replace(scene, solver=replace(scene.solver, method="rk4"))
     run_sweep(rk4)
     run_sweep(rk4, batched=False)
-    run_branch(replace(scene, sweep=replace(scene.sweep, start=0.9, stop=0.92, step=0.01)))
+    run_sweep(replace(rk4, sweep=shooting))
+    run_branch(replace(rk4, sweep=short))
     return f"{law} n={exponent}"
 
 

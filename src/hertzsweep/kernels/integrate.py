@@ -103,31 +103,6 @@ def advance(q_prev, q, h, law, drive, periods):
     return to_displacement(d_prev), to_displacement(d), OK
 
 
-@njit(cache=CACHE, error_model="numpy", nogil=True)
-def approach(q_prev, q, h, law, drive, block, max_periods, tolerance):
-    """Whole periods of one trajectory in blocks of ``block``, until the state after the
-    last period of a block is within ``tolerance`` (absolute, in q) of the state one period
-    before, or ``max_periods`` are done: a transient run up to its attractor.
-
-    Returns ``(q_prev, q, periods, status, close)``.
-    """
-    periods = 0
-    while periods < max_periods:
-        count = min(block, max_periods - periods)
-        q_prev, q, status = advance(q_prev, q, h, law, drive, count - 1)
-        if status != OK:
-            return q_prev, q, periods, status, False
-        after_prev, after, status = advance(q_prev, q, h, law, drive, 1)
-        if status != OK:
-            return after_prev, after, periods, status, False
-        periods += count
-        close = max(abs(after - q), abs(after_prev - q_prev)) <= tolerance
-        q_prev, q = after_prev, after
-        if close:
-            return q_prev, q, periods, OK, True
-    return q_prev, q, periods, OK, False
-
-
 @njit(cache=CACHE, inline="always")
 def _finite(d_prev, d):
     """Whether the state is finite as a displacement (a finite d near the largest double
@@ -439,7 +414,6 @@ __all__ = [
     "Drive",
     "Readout",
     "advance",
-    "approach",
     "advance_batch",
     "measure",
     "measure_one",

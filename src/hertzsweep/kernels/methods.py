@@ -10,8 +10,14 @@ h, so a change of frequency restarts it: ``restart``), ``q'`` for RK4 (it does n
 ``measure``/``measure_one`` (in place on arrays, ``-> (status, trajectory)``) are the
 compiled loops; ``drive(sigma, harmonics, steps_per_period)`` builds their input;
 ``start(q, q', h, law)`` gives ``a``; ``restart(a, q, h_old, h_new, law)`` carries ``a`` to
-another step; ``tangent`` names whether the method has the one-period map with its
-Jacobian (:mod:`.tangent`) that shooting and continuation use.
+another step. Every method has its one-period map with the exact Jacobian,
+``period_map(a, q, h, law, drive, derivative) -> (a, q, status)`` (``derivative``
+float64[2, 3]: ``d(a, q)[N] / d(a[0], q[0], h)``), which shooting and continuation use
+(the compiled Newton picks it by the drive's type: :mod:`.tangent`), and its ``basis``:
+the state ``x = (a, q) = Q basis z`` in the scaled coordinates ``z`` of Newton and the
+continuation, both of the order of the response amplitude over the orbit scale Q
+(displacement and velocity, or velocity over w, at phase 0). Every basis has the second
+row ``(1, 0)`` (``z0 = q / Q``), which the compiled Newton relies on.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import integrate, rk
+from . import integrate, rk, tangent
 
 KERNELS = (
     "advance",
@@ -45,7 +51,8 @@ class Method:
 
     name: str
     order: str  # for the reader: the order of the readings in h
-    tangent: bool
+    period_map: Callable
+    basis: Callable[[int], np.ndarray]  # of steps_per_period
     advance: Callable
     advance_batch: Callable
     measure: Callable
@@ -57,9 +64,10 @@ class Method:
     retune_batch: Callable
 
     @classmethod
-    def of(cls, name: str, order: str, module, tangent: bool) -> Method:
+    def of(cls, name: str, order: str, module, period_map: Callable, basis: Callable) -> Method:
         """The method whose kernels are ``module``'s :data:`KERNELS`."""
-        return cls(name, order, tangent, **{kernel: getattr(module, kernel) for kernel in KERNELS})
+        kernels = {kernel: getattr(module, kernel) for kernel in KERNELS}
+        return cls(name, order, period_map, basis, **kernels)
 
     def drive(self, sigma, harmonics, steps_per_period: int):
         """The kernels' input at the levels ``sigma`` (one per trajectory)."""
@@ -73,9 +81,23 @@ def _tables(name: str, steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
     return METHODS[name].tables(steps_per_period)
 
 
+def difference_basis(steps_per_period: int) -> np.ndarray:
+    """``(q[-1], q[0]) = Q B z`` with ``z = (q[0], (q[0] - q[-1]) / theta) / Q``, ``theta =
+    w h = 2 pi / N``: displacement and velocity over w."""
+    theta = 2.0 * np.pi / steps_per_period
+    return np.array([[1.0, -theta], [1.0, 0.0]])
+
+
+def velocity_basis(steps_per_period: int) -> np.ndarray:
+    """``(q'[0], q[0]) = Q B z`` with ``z = (q[0], q'[0]) / Q``."""
+    return np.array([[0.0, 1.0], [1.0, 0.0]])
+
+
 METHODS = {
-    "central-difference": Method.of("central-difference", "2", integrate, tangent=True),
-    "rk4": Method.of("rk4", "4 in contact, 3.5 through impacts", rk, tangent=False),
+    "central-difference": Method.of(
+        "central-difference", "2", integrate, tangent.period_map, difference_basis
+    ),
+    "rk4": Method.of("rk4", "4 in contact, 3.5 through impacts", rk, rk.period_map, velocity_basis),
 }
 
 __all__ = ["KERNELS", "METHODS", "Method"]

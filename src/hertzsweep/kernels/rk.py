@@ -37,10 +37,17 @@ taken whole: the order drops (to 2.5 for the Hertz force alone, to 1 where the d
 jumps).
 
 The state crossing the boundary is ``(q', q)``: it does not depend on the step, so a
-frequency change needs no restart. Stability of the explicit method (undamped,
-linearised): ``h omega < 2 sqrt(2)`` (RK4's interval on the imaginary axis), with
-``omega^2 = sqrt(d)`` at the largest compression: 1.41 times the central difference's
-``h omega < 2``.
+frequency change needs no restart. :func:`period_map` is one period of :func:`advance`
+with its exact derivatives (forward mode through the stages, the crossing's fraction,
+the split and the correction), for shooting and continuation. A lift-off's correction
+reaches back to the impact before it, or :data:`WINDOW`: a run that starts in contact
+does not know when the contact began, and takes it to be at least WINDOW before (so a
+contact shorter than WINDOW across the start of a run, or of a period of the map, is
+corrected as if it were longer: an error of order ``h^(5/2)`` there, none elsewhere).
+
+Stability of the explicit method (undamped, linearised): ``h omega < 2 sqrt(2)`` (RK4's
+interval on the imaginary axis), with ``omega^2 = sqrt(d)`` at the largest compression:
+1.41 times the central difference's ``h omega < 2``.
 """
 
 from __future__ import annotations
@@ -61,8 +68,8 @@ from .integrate import (
     _sample,
     _status,
 )
-from .laws import singular_exponent, terms
-from .scheme import OK, to_compression
+from .laws import singular_exponent, slopes, terms
+from .scheme import NON_FINITE, OK, to_compression
 from .stop import REQUEST
 
 Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "stop", "events"])
@@ -113,6 +120,74 @@ def _rk4(law, q, v, h, loads, side):
     return q_new, v_new, (x1, x2, x3, x4), root
 
 
+ZERO = (0.0, 0.0, 0.0)  # the tangent of a constant (see :func:`period_map`)
+
+
+@njit(cache=CACHE, inline="always")
+def _axpy(a, x, y):
+    """``a x + y`` of two tangents (3-tuples: derivatives by q'[0], q[0], h)."""
+    return (a * x[0] + y[0], a * x[1] + y[1], a * x[2] + y[2])
+
+
+@njit(cache=CACHE)
+def _stage_tangent(law, q, v, dq, dv, dload, side):
+    """The tangent of :func:`_acceleration`'s q'' at a stage ``(q, q')`` with tangents
+    ``dq``, ``dv`` and load tangent ``dload``: ``dload - k dq - c dv`` with
+    ``k = d(force)/dq`` (none where ``side`` holds d across 0)."""
+    d = to_compression(q)
+    if side > 0 and d <= 0.0:
+        d = TINY
+    elif side < 0 and d > 0.0:
+        d = 0.0
+    held = d != to_compression(q)
+    root, c = terms(law, d)
+    stiffness, dc = slopes(law, d, root)
+    k = (2.0 / 3.0) * (stiffness + dc * v)
+    return _axpy(0.0 if held else -k, dq, _axpy(-c, dv, dload))
+
+
+@njit(cache=CACHE)
+def _stage(law, start, previous, c, h, load, side):
+    """A stage of :func:`_rk4_tangent` at ``start + c h (previous stage's slope)``:
+    ``start = (q, q', dq, dq', dh)``, ``previous = (q', q'', dq', dq'')`` of the stage
+    before, ``load = (load, dload)``. Returns ``(q', q'', x, dq', dq'')`` of this stage."""
+    q, v, dq, dv, dh = start
+    v_before, a_before, dv_before, da_before = previous
+    q_stage, v_stage = q + c * h * v_before, v + c * h * a_before
+    dq_stage = _axpy(c * v_before, dh, _axpy(c * h, dv_before, dq))
+    dv_stage = _axpy(c * a_before, dh, _axpy(c * h, da_before, dv))
+    a, x, _ = _acceleration(law, q_stage, v_stage, load[0], side)
+    da = _stage_tangent(law, q_stage, v_stage, dq_stage, dv_stage, load[1], side)
+    return v_stage, a, x, dv_stage, da
+
+
+@njit(cache=CACHE)
+def _rk4_tangent(law, y, tangents, h, loads, side):
+    """:func:`_rk4` (the same arithmetic) with the tangents of its result: ``y = (q, q')``,
+    ``tangents = (dq, dq', dh, (dload1, dload2, dload3))`` (3-tuples; ``dh`` the tangent of
+    the step's length). Returns ``(q, q', x, dq, dq')``."""
+    q, v = y
+    dq, dv, dh, dloads = tangents
+    start = (q, v, dq, dv, dh)
+    first = (v, 0.0, dv, ZERO)
+    v1, a1, x1, dv1, da1 = _stage(law, start, first, 0.0, h, (loads[0], dloads[0]), side)
+    second = (v1, a1, dv1, da1)
+    v2, a2, x2, dv2, da2 = _stage(law, start, second, 0.5, h, (loads[1], dloads[1]), side)
+    third = (v2, a2, dv2, da2)
+    v3, a3, x3, dv3, da3 = _stage(law, start, third, 0.5, h, (loads[1], dloads[1]), side)
+    fourth = (v3, a3, dv3, da3)
+    v4, a4, x4, dv4, da4 = _stage(law, start, fourth, 1.0, h, (loads[2], dloads[2]), side)
+    sum_v = v1 + 2.0 * (v2 + v3) + v4
+    sum_a = a1 + 2.0 * (a2 + a3) + a4
+    q_new = q + h / 6.0 * sum_v
+    v_new = v + h / 6.0 * sum_a
+    dsum_v = _axpy(1.0, dv1, _axpy(2.0, dv2, _axpy(2.0, dv3, dv4)))
+    dsum_a = _axpy(1.0, da1, _axpy(2.0, da2, _axpy(2.0, da3, da4)))
+    dq_new = _axpy(sum_v / 6.0, dh, _axpy(h / 6.0, dsum_v, dq))
+    dv_new = _axpy(sum_a / 6.0, dh, _axpy(h / 6.0, dsum_a, dv))
+    return q_new, v_new, (x1, x2, x3, x4), dq_new, dv_new
+
+
 @njit(cache=CACHE)
 def _crossing(q0, v0, q1, v1, h):
     """The fraction of a step where its cubic Hermite interpolant of q crosses
@@ -141,23 +216,68 @@ def _load(sigma, w, tau):
     return 1.0 + sigma * math.sin(w * tau)
 
 
+@njit(cache=CACHE, inline="always")
+def _scale(a, x):
+    return (a * x[0], a * x[1], a * x[2])
+
+
 @njit(cache=CACHE)
-def _singular_terms(law, v_e, a_e, direction):
+def _crossing_tangent(ends, h, s, tangents):
+    """The tangent of the fraction ``s`` of :func:`_crossing`, implicit in ``H(s) = -3/2``
+    (H the Hermite interpolant of the ends ``(q0, q'0, q1, q'1)``, whose tangents are
+    ``tangents``): ``-dH / (dH/ds)``."""
+    q0, v0, q1, v1 = ends
+    dq0, dv0, dq1, dv1 = tangents
+    s2 = s * s
+    s3 = s2 * s
+    slope = (
+        (6.0 * s2 - 6.0 * s) * q0
+        + (3.0 * s2 - 4.0 * s + 1.0) * h * v0
+        + (6.0 * s - 6.0 * s2) * q1
+        + (3.0 * s2 - 2.0 * s) * h * v1
+    )
+    h10, h11 = s3 - 2.0 * s2 + s, s3 - s2
+    change = _axpy(2.0 * s3 - 3.0 * s2 + 1.0, dq0, _scale(3.0 * s2 - 2.0 * s3, dq1))
+    change = _axpy(h10 * h, dv0, _axpy(h11 * h, dv1, change))
+    change = (change[0], change[1], change[2] + h10 * v0 + h11 * v1)  # by h
+    return _scale(-1.0 / slope, change)
+
+
+@njit(cache=CACHE)
+def _singular_terms(law, crossing):
     """The fractional powers of ``s = |tau - tau_e|`` below 5/2 in the contact force near a
-    crossing at speed ``v_e`` and contact-side acceleration ``a_e`` (``direction`` +1: the
-    contact follows, an impact; -1: it precedes, a lift-off): ``((beta, p), ...)`` three
-    terms ``beta s^p`` (beta = 0 for a term the law does not have)."""
+    crossing ``(tau_e, v_e, a_e, direction, w, dv_e, da_e)``: speed ``v_e`` and contact-side
+    acceleration ``a_e`` there (with their tangents), ``direction`` +1 where the contact
+    follows (an impact), -1 where it precedes (a lift-off). Returns three terms
+    ``(beta, p, dbeta)``, each ``beta s^p`` with the tangent of beta (beta = 0 for a term
+    the law does not have)."""
+    _, v_e, a_e, direction, _, dv_e, da_e = crossing
     a = (2.0 / 3.0) * abs(v_e)
+    da = _scale((2.0 / 3.0) * (1.0 if v_e > 0.0 else -1.0), dv_e)
     b = a_e / 3.0
-    hertz = (a * math.sqrt(a), 1.5)
+    root = math.sqrt(a)
+    hertz = (a * root, 1.5, _scale(1.5 * root, da))
+    none = (0.0, 1.0, ZERO)
     n = singular_exponent(law)
     if n < 0.0 or a <= 0.0:  # viscous: c q' is smooth
-        return hertz, (0.0, 1.0), (0.0, 1.0)
+        return hertz, none, none
     an = a**n
-    first = (law.twozeta * an * v_e, n) if (n != math.floor(n) and n < 2.5) else (0.0, 1.0)
+    dan = _scale(n * an / a, da)  # of a^n
+    first = none
+    if n != math.floor(n) and n < 2.5:
+        dfirst = _axpy(law.twozeta * an, dv_e, _scale(law.twozeta * v_e, dan))
+        first = (law.twozeta * an * v_e, n, dfirst)
     p = n + 1.0
-    beta = law.twozeta * an * (n * b * v_e / a + direction * a_e)
-    second = (beta, p) if (p != math.floor(p) and p < 2.5) else (0.0, 1.0)
+    second = none
+    if p != math.floor(p) and p < 2.5:
+        g = n * b * v_e / a + direction * a_e
+        dg = _axpy(n * v_e / (3.0 * a), da_e, _axpy(n * b / a, dv_e, _scale(direction, da_e)))
+        dg = _axpy(-n * b * v_e / (a * a), da, dg)
+        second = (
+            law.twozeta * an * g,
+            p,
+            _axpy(law.twozeta * an, dg, _scale(law.twozeta * g, dan)),
+        )
     return hertz, first, second
 
 
@@ -165,46 +285,78 @@ def _singular_terms(law, v_e, a_e, direction):
 def _defects(p, lo, hi, impact):
     """For ``g = s^p`` over one step spanning ``lo <= s <= hi``: ``(D, Dq)``, the exact
     integral of g minus RK4's quadrature of it (Simpson's rule) and the exact double
-    integral (the displacement it adds at the step's end) minus RK4's. ``impact``: s grows
-    with tau (the step starts at lo), else it falls (the step starts at hi)."""
-    g_lo, g_hi, g_mid = lo**p, hi**p, (0.5 * (lo + hi)) ** p
+    integral (the displacement it adds at the step's end) minus RK4's, then their
+    derivatives by ``(lo, hi)``. ``impact``: s grows with tau (the step starts at lo), else
+    it falls (the step starts at hi)."""
+    mid = 0.5 * (lo + hi)
+    g_lo, g_hi, g_mid = lo**p, hi**p, mid**p
+    s_lo = p * lo ** (p - 1.0) if lo > 0.0 else 0.0  # lo = 0 only at the crossing itself
+    s_hi = p * hi ** (p - 1.0) if hi > 0.0 else 0.0
+    s_mid = p * mid ** (p - 1.0) if mid > 0.0 else 0.0
     step = hi - lo
     one = (hi ** (p + 1.0) - lo ** (p + 1.0)) / (p + 1.0)
     two = (hi ** (p + 2.0) - lo ** (p + 2.0)) / (p + 2.0)
-    defect = one - step / 6.0 * (g_lo + 4.0 * g_mid + g_hi)
+    simpson = g_lo + 4.0 * g_mid + g_hi
+    defect = one - step / 6.0 * simpson
+    by_defect = (
+        -g_lo + simpson / 6.0 - step / 6.0 * (s_lo + 2.0 * s_mid),
+        g_hi - simpson / 6.0 - step / 6.0 * (2.0 * s_mid + s_hi),
+    )
     if impact:  # int (tau_b - tau) g: tau_b at hi
-        return defect, hi * one - two - step * step / 6.0 * (g_lo + 2.0 * g_mid)
-    return defect, two - lo * one - step * step / 6.0 * (g_hi + 2.0 * g_mid)
+        inner = g_lo + 2.0 * g_mid
+        by_shift = (
+            -step * g_lo + step / 3.0 * inner - step * step / 6.0 * (s_lo + s_mid),
+            one - step / 3.0 * inner - step * step / 6.0 * s_mid,
+        )
+        return defect, hi * one - two - step * step / 6.0 * inner, by_defect, by_shift
+    inner = g_hi + 2.0 * g_mid
+    by_shift = (
+        -one + step / 3.0 * inner - step * step / 6.0 * s_mid,
+        step * g_hi - step / 3.0 * inner - step * step / 6.0 * (s_hi + s_mid),
+    )
+    return defect, two - lo * one - step * step / 6.0 * inner, by_defect, by_shift
 
 
 @njit(cache=CACHE)
-def _correct(law, drive, h, crossing, first, reach, sums, fourier):
+def _correct(law, drive, h, crossing, span, sums, fourier):
     """The exact integrals of the singular terms of a crossing minus RK4's quadrature of
     them (see the module docstring), over the steps from the crossing to the window's end
     (or ``reach``, tau from the crossing to the previous crossing): returned as
-    ``(dq, dv)`` for the state at the crossing, and added to the integral of x (``sums[0]``)
-    and to its Fourier integrals (``fourier``, when it has rows), all divided by h.
+    ``(dq, dv)`` for the state at the crossing with their tangents, and added to the
+    integral of x (``sums[0]``) and to its Fourier integrals (``fourier``, when it has
+    rows), all divided by h.
 
-    ``crossing = (tau_e, v_e, a_e, direction, w)``; ``first``: the length of the split
-    step's part on the contact side."""
-    tau_e, v_e, a_e, direction, w = crossing
+    ``crossing = (tau_e, v_e, a_e, direction, w, dv_e, da_e)``; ``span = (first, reach,
+    dfirst, dreach)``: the length of the split step's part on the contact side, ``reach``,
+    their tangents."""
+    tau_e, v_e, a_e, direction, w, _, _ = crossing
+    first, reach, dfirst, dreach = span
     impact = direction > 0.0
     dq = 0.0
     dv = 0.0
-    terms3 = _singular_terms(law, v_e, a_e, direction)
+    ddq = ZERO
+    ddv = ZERO
+    terms3 = _singular_terms(law, crossing)
     lo, hi = 0.0, first
+    dlo, dhi = ZERO, dfirst
     limit = min(WINDOW, reach)
     while True:
-        for beta, p in terms3:
+        for beta, p, dbeta in terms3:
             if beta == 0.0:
                 continue
-            defect, shift = _defects(p, lo, hi, impact)
-            tau_b_from_e = hi if impact else -lo  # tau_b - tau_e
+            defect, shift, by_defect, by_shift = _defects(p, lo, hi, impact)
+            ddefect = _axpy(by_defect[0], dlo, _scale(by_defect[1], dhi))
+            dshift = _axpy(by_shift[0], dlo, _scale(by_shift[1], dhi))
+            arm, darm = (hi, dhi) if impact else (-lo, _scale(-1.0, dlo))  # tau_b - tau_e
+            moment = shift - defect * arm
+            dmoment = _axpy(-defect, darm, _axpy(-arm, ddefect, dshift))
             dv -= beta * defect
-            dq -= beta * (shift - defect * tau_b_from_e)
+            dq -= beta * moment
+            ddv = _axpy(-defect, dbeta, _axpy(-beta, ddefect, ddv))
+            ddq = _axpy(-moment, dbeta, _axpy(-beta, dmoment, ddq))
             sums[0] += beta * defect / h
             if fourier.shape[0] > 0:
-                slope, _ = _defects(p + 1.0, lo, hi, impact)
+                slope = _defects(p + 1.0, lo, hi, impact)[0]
                 for i in range(fourier.shape[0]):
                     kw = drive.harmonics[i] * w
                     c, s = math.cos(kw * tau_e), math.sin(kw * tau_e)
@@ -212,8 +364,11 @@ def _correct(law, drive, h, crossing, first, reach, sums, fourier):
                     fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) / h
                     fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) / h
         if hi >= limit:
-            return dq, dv
-        lo, hi = hi, min(hi + h, reach)
+            return dq, dv, ddq, ddv
+        if hi + h < reach:
+            lo, hi, dlo, dhi = hi, hi + h, dhi, (dhi[0], dhi[1], dhi[2] + 1.0)
+        else:
+            lo, hi, dlo, dhi = hi, reach, dhi, dreach
 
 
 @njit(cache=CACHE, inline="always")
@@ -251,31 +406,50 @@ def _simpson_at(fourier, drive, x, tau, step, w, weight):
 
 
 @njit(cache=CACHE)
-def _split(law, drive, step, q, v, sums, fourier):
-    """The step of ``step = (h, w, sigma, j, fraction, inside, reach)`` from ``(q, q')``
-    taken as two RK4 steps, to the crossing at ``fraction`` of it and from it, the
-    singular terms' correction (:func:`_correct`) added at the crossing; each part's
-    quadrature added to ``sums`` and ``fourier`` (when it has rows). Returns ``(q, q',
-    x at the crossing)``."""
-    h, w, sigma, j, fraction, inside, reach = step
+def _split(law, drive, step, y, sums, fourier):
+    """The step of ``step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach)``
+    from ``y = (q, q', dq, dq')`` taken as two RK4 steps, to the crossing at ``fraction`` of
+    it and from it, the singular terms' correction (:func:`_correct`) added at the
+    crossing; each part's quadrature added to ``sums`` and ``fourier`` (when it has rows).
+    Returns ``(q, q', x at the crossing, dq, dq')`` (the tangents as :func:`period_map`'s,
+    those of ``fraction`` and ``reach`` given)."""
+    h, w, sigma, j, fraction, inside, reach, dfraction, dreach = step
+    q, v, dq, dv = y
     side = 1 if inside else -1
     first = fraction * h
     second = h - first
+    dfirst = _axpy(h, dfraction, (0.0, 0.0, fraction))
+    dsecond = _axpy(-1.0, dfirst, (0.0, 0.0, 1.0))
     t0 = j * h
     tau_e = t0 + first
-    loads = (_load(sigma, w, t0), _load(sigma, w, t0 + 0.5 * first), _load(sigma, w, tau_e))
-    q, v, x, _ = _rk4(law, q, v, first, loads, side)
+    middle = t0 + 0.5 * first
+    loads = (_load(sigma, w, t0), _load(sigma, w, middle), _load(sigma, w, tau_e))
+    # w tau = 2 pi (j + fraction c) / N at tau = t0 + c first: its tangent is w h c dfraction
+    rate = sigma * w * h
+    dloads = (
+        ZERO,
+        _scale(0.5 * rate * math.cos(w * middle), dfraction),
+        _scale(rate * math.cos(w * tau_e), dfraction),
+    )
+    q, v, x, dq, dv = _rk4_tangent(law, (q, v), (dq, dv, dfirst, dloads), first, loads, side)
     _quadrature(sums, fourier, drive, x, (t0, first, w, h))
     # the contact side's acceleration at the crossing (there the force is c(0+) q')
     a_e, x_e, _ = _acceleration(law, -1.5, v, loads[2], 1)
+    da_e = _stage_tangent(law, -1.5, v, ZERO, dv, dloads[2], 1)
     direction = -1.0 if inside else 1.0
-    crossing = (tau_e, v, a_e, direction, w)
-    contact = second if direction > 0.0 else first
-    dq, dv = _correct(law, drive, h, crossing, contact, reach, sums, fourier)
-    loads = (loads[2], _load(sigma, w, tau_e + 0.5 * second), _load(sigma, w, t0 + h))
-    q, v, x, _ = _rk4(law, q + dq, v + dv, second, loads, -side)
+    crossing = (tau_e, v, a_e, direction, w, dv, da_e)
+    contact = (
+        (second, reach, dsecond, dreach) if direction > 0.0 else (first, reach, dfirst, dreach)
+    )
+    cq, cv, dcq, dcv = _correct(law, drive, h, crossing, contact, sums, fourier)
+    middle = tau_e + 0.5 * second
+    loads = (loads[2], _load(sigma, w, middle), _load(sigma, w, t0 + h))
+    dloads = (dloads[2], _scale(0.5 * rate * math.cos(w * middle), dfraction), ZERO)
+    y = (q + cq, v + cv)
+    tangents = (_axpy(1.0, dcq, dq), _axpy(1.0, dcv, dv), dsecond, dloads)
+    q, v, x, dq, dv = _rk4_tangent(law, y, tangents, second, loads, -side)
     _quadrature(sums, fourier, drive, x, (tau_e, second, w, h))
-    return q, v, x_e
+    return q, v, x_e, dq, dv
 
 
 @njit(cache=CACHE, inline="always")
@@ -377,8 +551,8 @@ def _run(law, drive, t, h, state, periods, out, measuring):
             else:
                 fraction = _crossing(q, v, q1, v1, h)
                 reach = p * n * h + (j + fraction) * h - last_crossing if inside else np.inf
-                step = (h, w, sigma, j, fraction, inside, reach)
-                q, v, x_e = _split(law, drive, step, q, v, sums, fourier)
+                step = (h, w, sigma, j, fraction, inside, reach, ZERO, ZERO)
+                q, v, x_e, _, _ = _split(law, drive, step, (q, v, ZERO, ZERO), sums, fourier)
                 acc = _extremes(acc, (np.nan, np.nan), x_e)
                 for i in range(k):  # the table positions of the next step
                     index[i] = (drive.harmonics[i] * 2 * (j + 1)) % n2
@@ -454,6 +628,60 @@ def advance(v, q, h, law, drive, periods):
     state[1, 0] = q
     status = _run(law, drive, 0, h, state, periods, _no_readout(1), False)
     return state[0, 0], state[1, 0], status
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def period_map(v, q, h, law, drive, derivative):
+    """One period of the method (level ``drive.sigma[0]``) from ``(q', q)`` at phase 0,
+    with its exact derivatives: the same arithmetic as :func:`advance` over one period
+    (bit for bit), differentiated in forward mode through every stage, the crossing's
+    fraction (implicit in the Hermite interpolant), the split and the singular terms'
+    correction. ``derivative`` (float64[2, 3]) receives ``d(q'[N], q[N]) / d(q'[0], q[0],
+    h)``: the monodromy matrix and ``dP/dh`` (the loads of the grid do not depend on h; a
+    split step's do, through its fraction). Returns ``(q', q, status)`` as :func:`advance`.
+    """
+    n = drive.sin_table.shape[0] // 2
+    n2 = 2 * n
+    w = 2.0 * math.pi / (n * h)
+    sigma = drive.sigma[0]
+    limit = 8.0 / (h * h)
+    peak = 0.0
+    dv, dq, dh = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
+    none = np.zeros(1)
+    nothing = np.zeros((0, 2))
+    last_crossing, dlast = -np.inf, ZERO
+    for j in range(n):
+        loads = (
+            1.0 + sigma * drive.sin_table[2 * j],
+            1.0 + sigma * drive.sin_table[2 * j + 1],
+            1.0 + sigma * drive.sin_table[(2 * j + 2) % n2],
+        )
+        d = to_compression(q)
+        inside = d > 0.0
+        peak = max(peak, math.sqrt(d) if inside else 0.0)
+        side = (1 if inside else -1) * drive.events
+        tangents = (dq, dv, dh, (ZERO, ZERO, ZERO))
+        q1, v1, _, dq1, dv1 = _rk4_tangent(law, (q, v), tangents, h, loads, side)
+        if (to_compression(q1) > 0.0) == inside or not drive.events:
+            q, v, dq, dv = q1, v1, dq1, dv1
+            continue
+        fraction = _crossing(q, v, q1, v1, h)
+        dfraction = _crossing_tangent((q, v, q1, v1), h, fraction, (dq, dv, dq1, dv1))
+        now = 0.0 + (j + fraction) * h  # as _run's crossing time in its first period
+        dnow = _axpy(h, dfraction, (0.0, 0.0, j + fraction))
+        reach, dreach = (
+            (now - last_crossing, _axpy(-1.0, dlast, dnow)) if inside else (np.inf, ZERO)
+        )
+        step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach)
+        q, v, _, dq, dv = _split(law, drive, step, (q, v, dq, dv), none, nothing)
+        last_crossing, dlast = now, dnow
+    for i in range(3):
+        derivative[0, i] = dv[i]
+        derivative[1, i] = dq[i]
+    status = _status(to_compression(v), to_compression(q), peak, limit, drive.stop)
+    if status == OK and not math.isfinite(dv[0] + dv[1] + dv[2] + dq[0] + dq[1] + dq[2]):
+        status = NON_FINITE
+    return v, q, status
 
 
 @njit(cache=CACHE)

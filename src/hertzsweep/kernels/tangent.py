@@ -1,4 +1,10 @@
-"""The tangent-linear scheme: one period of the map and its exact derivatives.
+"""One period of the map with its exact derivatives, and Newton on it for every method.
+
+:func:`period_map` is the central difference's; rk4's is :func:`.rk.period_map`. Newton
+(:func:`newton`), the compiled shooting walk (:func:`shooting_walk`) and the transient's
+approach (:func:`approach`) take either method's drive and call that method's kernels
+(:func:`one_period`, :func:`advance`, :func:`measure_one`, :func:`restart`: chosen by the
+drive's type when numba compiles them).
 
 The one-period map of the scheme (:mod:`.scheme`) takes the state ``x = (q[-1], q[0])`` at
 the start of a period (excitation phase 0) to ``P(x) = (q[N-1], q[N])``. In the compression
@@ -31,9 +37,11 @@ from collections import namedtuple
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.extending import overload
 
-from . import CACHE
-from .integrate import Readout, _finite, measure_one, restart, step
+from . import CACHE, integrate, rk
+from .integrate import Readout, _finite, step
 from .laws import slopes
 from .scheme import (
     NON_FINITE,
@@ -111,26 +119,132 @@ def period_map(q_prev, q, h, law, drive, derivative):
     return to_displacement(d_prev), to_displacement(d), OK
 
 
+# ---------------------------------------------------------------- every method's map
+# Newton, the shooting walk and the transient's approach serve every method: each call
+# below is the kernel of the method whose drive it is given (a drive's namedtuple type
+# names its method), chosen when numba compiles the caller, so nothing is passed as a
+# function and every kernel stays cached.
+
+MODULES = {integrate.Drive: integrate, rk.Drive: rk}
+"""The kernel module of each method's drive type."""
+PERIOD_MAPS = {integrate.Drive: period_map, rk.Drive: rk.period_map}
+"""The one-period map with its Jacobian of each method's drive type."""
+
+
+def _module(drive):
+    """The kernel module of a drive's numba type (None if it is no method's drive)."""
+    if isinstance(drive, types.BaseNamedTuple):
+        return MODULES.get(drive.instance_class)
+    return None
+
+
+def one_period(a, q, h, law, drive, derivative):
+    """One period with its derivatives: :func:`period_map` or the drive's method's own."""
+    raise NotImplementedError("compiled only")
+
+
+def advance(a, q, h, law, drive, periods):
+    """The drive's method's ``advance``."""
+    raise NotImplementedError("compiled only")
+
+
+def measure_one(a, q, h, law, drive, periods, readout):
+    """The drive's method's ``measure_one``."""
+    raise NotImplementedError("compiled only")
+
+
+def restart(a, q, h_old, h_new, law, drive):
+    """The drive's method's first state member carried from step h_old to h_new."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(one_period)
+def _one_period(a, q, h, law, drive, derivative):
+    module = _module(drive)
+    if module is not None:
+        kernel = PERIOD_MAPS[drive.instance_class]
+        return lambda a, q, h, law, drive, derivative: kernel(a, q, h, law, drive, derivative)
+    return None
+
+
+@overload(advance)
+def _advance(a, q, h, law, drive, periods):
+    module = _module(drive)
+    if module is not None:
+        kernel = module.advance
+        return lambda a, q, h, law, drive, periods: kernel(a, q, h, law, drive, periods)
+    return None
+
+
+@overload(measure_one)
+def _measure_one(a, q, h, law, drive, periods, readout):
+    module = _module(drive)
+    if module is not None:
+        kernel = module.measure_one
+        return lambda a, q, h, law, drive, periods, readout: kernel(
+            a, q, h, law, drive, periods, readout
+        )
+    return None
+
+
+@overload(restart)
+def _restart(a, q, h_old, h_new, law, drive):
+    module = _module(drive)
+    if module is integrate:
+        return lambda a, q, h_old, h_new, law, drive: integrate.restart(a, q, h_old, h_new, law)
+    if module is rk:  # q' does not depend on the step
+        return lambda a, q, h_old, h_new, law, drive: a
+    return None
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def approach(a, q, h, law, drive, block, max_periods, tolerance):
+    """Whole periods of one trajectory in blocks of ``block``, until the state after the
+    last period of a block is within ``tolerance`` (absolute, in q and in the method's
+    other member) of the state one period before, or ``max_periods`` are done: a
+    transient run up to its attractor.
+
+    Returns ``(a, q, periods, status, close)``.
+    """
+    periods = 0
+    while periods < max_periods:
+        count = min(block, max_periods - periods)
+        a, q, status = advance(a, q, h, law, drive, count - 1)
+        if status != OK:
+            return a, q, periods, status, False
+        after_a, after, status = advance(a, q, h, law, drive, 1)
+        if status != OK:
+            return after_a, after, periods, status, False
+        periods += count
+        close = max(abs(after - q), abs(after_a - a)) <= tolerance
+        a, q = after_a, after
+        if close:
+            return a, q, periods, OK, True
+    return a, q, periods, OK, False
+
+
 CONVERGED_PERIODS = 1  # periods read on a converged stable orbit: all its periods are one
 # period, to the Newton residual (1e-10 of Q), so one period reads what any number would
 
 NewtonSettings = namedtuple(
-    "NewtonSettings", ["scale", "theta", "tolerance", "max_iterations", "monotone", "margin"]
+    "NewtonSettings", ["scale", "basis", "tolerance", "max_iterations", "monotone", "margin"]
 )
-"""Newton on the one-period map (:func:`newton`): the orbit scale Q, ``theta = w h =
-2 pi / N`` (the scaled coordinates ``z = (q[0], (q[0] - q[-1]) / theta) / Q``), the residual
+"""Newton on the one-period map (:func:`newton`): the orbit scale Q and the scaled
+coordinates z of the state ``x = Q basis z`` (``basis`` float64[2, 2], the method's, of
+the form ``[[b00, b01], [1, 0]]``: ``z0 = q / Q``; see :mod:`.methods`), the residual
 ``|P(x) - x|_inf / Q`` that counts as converged, the most iterations, whether to stop as
 soon as a correction fails to shrink, and the margin below 1 of the largest Floquet
 multiplier's modulus that counts as stable."""
 
 
 @njit(cache=CACHE, error_model="numpy", nogil=True)
-def newton(q_prev, q, h, law, drive, settings, residuals, monodromy):
-    """Newton's method on ``P(x) = x`` at a fixed step h, from ``x = (q_prev, q)``.
+def newton(a, q, h, law, drive, settings, residuals, monodromy):
+    """Newton's method on ``P(x) = x`` at a fixed step h, from ``x = (a, q)`` (the drive's
+    method's state and its one-period map, :func:`one_period`).
 
-    In the scaled coordinates z (``x = B z``, ``B = Q [[1, -theta], [1, 0]]``) each iterate
-    solves ``(M - I) B dz = -(P(x) - x)`` (2 x 2, Cramer's rule) with the exact monodromy M
-    of :func:`period_map`.
+    In the scaled coordinates z (``x = Q B z``, ``B = settings.basis``) each iterate
+    solves ``(M - I) B dz = -(P(x) - x) / Q`` (2 x 2, Cramer's rule) with the exact
+    monodromy M of the map.
 
     Parameters
     ----------
@@ -142,18 +256,18 @@ def newton(q_prev, q, h, law, drive, settings, residuals, monodromy):
     Returns
     -------
     tuple
-        ``(q_prev, q, evaluations, converged)``: the last iterate evaluated (the fixed point
+        ``(a, q, evaluations, converged)``: the last iterate evaluated (the fixed point
         when converged), the number of periods integrated.
     """
-    scale, theta = settings.scale, settings.theta
-    z0 = q / scale
-    z1 = (q - q_prev) / (scale * theta)
+    scale, b = settings.scale, settings.basis
+    z0 = q / scale  # every method's basis is [[b00, b01], [1, 0]]: z0 = q / Q
+    z1 = (a - b[0, 0] * q) / (b[0, 1] * scale)
     derivative = np.zeros((2, 3))
     previous = np.inf  # size of the last correction
     for iteration in range(settings.max_iterations + 1):
-        x0 = scale * (z0 - theta * z1)
-        x1 = scale * z0
-        p0, p1, status = period_map(x0, x1, h, law, drive, derivative)
+        x0 = scale * (b[0, 0] * z0 + b[0, 1] * z1)
+        x1 = scale * (b[1, 0] * z0 + b[1, 1] * z1)
+        p0, p1, status = one_period(x0, x1, h, law, drive, derivative)
         g0 = (p0 - x0) / scale
         g1 = (p1 - x1) / scale
         ok = status == OK and math.isfinite(g0) and math.isfinite(g1)
@@ -167,13 +281,13 @@ def newton(q_prev, q, h, law, drive, settings, residuals, monodromy):
             break
         a00, a01 = monodromy[0, 0] - 1.0, monodromy[0, 1]
         a10, a11 = monodromy[1, 0], monodromy[1, 1] - 1.0
-        j00, j01 = a00 + a01, -theta * a00  # (M - I) [[1, -theta], [1, 0]]
-        j10, j11 = a10 + a11, -theta * a10
-        det = j00 * j11 - j01 * j10
-        if det == 0.0 or not math.isfinite(det):
+        j00, j01 = a00 * b[0, 0] + a01 * b[1, 0], a00 * b[0, 1] + a01 * b[1, 1]  # (M - I) B
+        j10, j11 = a10 * b[0, 0] + a11 * b[1, 0], a10 * b[0, 1] + a11 * b[1, 1]
+        det_j = j00 * j11 - j01 * j10
+        if det_j == 0.0 or not math.isfinite(det_j):
             return x0, x1, iteration + 1, False
-        c0 = (g0 * j11 - j01 * g1) / det
-        c1 = (j00 * g1 - j10 * g0) / det
+        c0 = (g0 * j11 - j01 * g1) / det_j
+        c1 = (j00 * g1 - j10 * g0) / det_j
         size = max(abs(c0), abs(c1))
         if settings.monotone and size >= previous:
             return x0, x1, iteration + 1, False
@@ -198,9 +312,10 @@ def largest_multiplier(monodromy):
 @njit(cache=CACHE, error_model="numpy", nogil=True)
 def shooting_walk(state, steps, law, drive, settings, readout, start):
     """Stepped-sine dwells by shooting, from dwell ``start`` on, for as long as Newton
-    (monotone) lands on a stable orbit at every one: retune the state (float64[3]: q_prev,
-    q, h) to ``steps[i]``, solve the orbit, read :data:`CONVERGED_PERIODS` of it into column i of
-    ``readout`` (:class:`~hertzsweep.kernels.integrate.Readout` over the dwells).
+    (monotone) lands on a stable orbit at every one: retune the state (float64[3]: the
+    method's first member, q, h) to ``steps[i]``, solve the orbit, read
+    :data:`CONVERGED_PERIODS` of it into column i of ``readout``
+    (:class:`~hertzsweep.kernels.integrate.Readout` over the dwells).
 
     Returns ``(stop, periods)``: the first dwell Newton could not settle (``len(steps)`` if
     none; ``state`` then holds its retuned start) and the periods integrated in all.
@@ -217,7 +332,7 @@ def shooting_walk(state, steps, law, drive, settings, readout, start):
     periods = 0
     for i in range(start, steps.shape[0]):
         if steps[i] != state[2]:
-            state[0] = restart(state[0], state[1], state[2], steps[i], law)
+            state[0] = restart(state[0], state[1], state[2], steps[i], law, drive)
             state[2] = steps[i]
         x0, x1, evaluations, converged = newton(
             state[0], state[1], state[2], law, drive, settings, residuals, monodromy
@@ -237,6 +352,11 @@ def shooting_walk(state, steps, law, drive, settings, readout, start):
 
 __all__ = [
     "CONVERGED_PERIODS",
+    "advance",
+    "approach",
+    "measure_one",
+    "one_period",
+    "restart",
     "NewtonSettings",
     "largest_multiplier",
     "newton",
