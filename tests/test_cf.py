@@ -311,7 +311,8 @@ def test_command_json(files):
     labels = open_dataset(files["accuracy"]).setting_label.values
     assert accuracy["target"] == 1e-3 and len(accuracy["settings"]) == labels.size
     assert accuracy["settings"][-1] == {"steps_per_period": 256, "settle_periods": 40,
-                                        "tolerance": None, "steady_state": "settle"}  # fmt: skip
+                                        "tolerance": None, "steady_state": "settle",
+                                        "method": "rk4"}  # fmt: skip
 
 
 def test_absolute_arguments(tmp_path, monkeypatch):

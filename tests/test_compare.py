@@ -492,9 +492,12 @@ def test_accuracy_wall_time_is_not_compared_and_settings_are_coordinates():
     ref = accuracy_ds()
     run = ref.copy(deep=True)
     run["wall_time"].values[:] *= 3  # another machine
+    run["pareto"] = ("setting", np.array([1, 0, 1], dtype=np.int8), attrs("pareto"))
+    ref["pareto"] = ("setting", np.array([0, 1, 1], dtype=np.int8), attrs("pareto"))
     report = compare(run, ref)
     assert report.equal, report.text()
     assert report.variables["wall_time"].passed is None
+    assert report.variables["pareto"].passed is None  # drawn from the wall time
     assert "not compared (skipped by default; --var NAME=RTOL compares it): wall_time" in (
         report.text()
     )

@@ -1,21 +1,25 @@
 """The speed/accuracy trade of the solver settings, measured on the user's own scene.
 
 A *ladder* of settings is run with :func:`hertzsweep.drivers.sweep.run_sweep` on copies
-of the scene that differ in one setting each:
+of the scene that differ in one setting each, for every integration method
+(``solver.method``, :data:`hertzsweep.kernels.methods.METHODS`; ``methods`` chooses):
 
-- steps per period N (default 32 .. 2048, powers of 2) at the scene's settling;
-- settling at the scene's N: fixed 50, 100, 300, 1000 periods, and ``"auto"`` with
-  tolerance 1e-2 .. 1e-6;
-- the steady state by shooting (``sweep.steady_state = "shooting"``) at each N of the
-  steps axis: Newton finds the periodic orbit of the discrete scheme itself, so these
-  rungs carry no settling error;
-- the *reference*: the largest N with the longest fixed settling, and its Richardson
-  partner at N/2 with the same settling.
+- steps per period N at the scene's settling, each method on its own axis (default
+  :data:`METHOD_STEPS`: 32 .. 2048 for the central difference, 16 .. 256 for rk4, powers
+  of 2);
+- settling at the scene's N and method: fixed 50, 100, 300, 1000 periods, and ``"auto"``
+  with tolerance 1e-2 .. 1e-6;
+- the steady state by shooting (``sweep.steady_state = "shooting"``) at each N of each
+  method's steps axis: Newton finds the periodic orbit of the discrete method itself, so
+  these rungs carry no settling error;
+- the *reference*: the most accurate method's largest N with the longest fixed
+  settling, and its Richardson partner at N/2 with the same settling.
 
-Each rung is measured against the reference (:func:`sweep_errors`) and costed in
-integration steps and wall time. The reference itself is checked by Richardson
-extrapolation of order 2 (:func:`richardson_error`): with the central-difference error
-``C h^2``, ``|A_N - A_N/2| / (2^2 - 1)`` estimates the error of ``A_N``.
+Each rung is measured against the reference (:func:`sweep_errors`) and costed in wall
+time (what the Pareto front and ``--target`` use: a step costs differently per method)
+and integration steps. The reference itself is checked by Richardson extrapolation of
+its method's order (:data:`RICHARDSON_ORDER`, :func:`richardson_error`): with an error
+``C h^p``, ``|A_N - A_N/2| / (2^p - 1)`` estimates the error of ``A_N``.
 
 The observed order comes from successive rungs of the steps axis, which share the same
 settling: ``p = log2(|A_N - A_2N| / |A_2N - A_4N|)`` (max norm of H1 over the sweep).
@@ -23,10 +27,12 @@ Differences of rungs with the same settling cancel the settling error that error
 against the reference (settled longer) keep, so p is the order of the time
 discretisation alone.
 
-Cost is counted in integration steps (:attr:`SweepResult.steps`): deterministic and
-machine-independent, it is what the Pareto front and the recommendation use. A Newton
-period of shooting counts as N steps, although it also propagates the tangent map, and
-Newton's per-dwell overhead is not counted: compare the wall times as well.
+Wall time is measured per rung in one process, after every method's kernels are loaded
+(:func:`run_ladder`): it is the machine's, and a re-run's differ by the machine's noise
+(a few per cent on rungs of 0.1 s and more). Integration steps
+(:attr:`SweepResult.steps`) are reported as well: deterministic, but an rk4 step is
+four force evaluations, and a Newton period of shooting counts as N steps although it
+also propagates the tangent map.
 """
 
 from __future__ import annotations
@@ -38,22 +44,28 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..core.config import Scene
+from ..core.config import SOLVER_METHODS, Scene
 from ..core.model import stability_limit
 from ..errors import ConfigError, HertzsweepError
 from .sweep import SweepResult, run_sweep
 
+DEFAULT_METHOD = "central-difference"  # a Setting's method when none is named (older files)
 DEFAULT_STEPS = (32, 64, 128, 256, 512, 1024, 2048)  # powers of 2: each halving of h is a rung
+METHOD_STEPS = {  # each method's default steps axis: from a 1e-2 error to the round-off
+    "central-difference": DEFAULT_STEPS,  # of the readings (order 2: 1e-5 at N = 2048)
+    "rk4": (16, 32, 64, 128, 256),  # order 4: 1e-8 at N = 256 on the default scene
+}
+QUICK_METHOD_STEPS = {"central-difference": (64, 128, 256, 512, 1024), "rk4": (32, 64, 128)}
+RICHARDSON_ORDER = {"central-difference": 2.0, "rk4": 3.5}  # the order where the force is
+# smooth (2), and rk4's through impacts (3.5, below its 4 in contact: the safe side of the
+# Richardson estimate |A_N - A_N/2| / (2^p - 1))
 DEFAULT_SETTLE: tuple[int | str, ...] = (  # fixed settling around the default 300 periods,
     *(50, 100, 300, 1000),  # then "auto" from loose to tight
     *(f"auto:1e-{k}" for k in range(2, 7)),
 )
-QUICK_STEPS = (64, 128, 256, 512, 1024)  # --quick: the steps axis around the default 256
+QUICK_STEPS = QUICK_METHOD_STEPS["central-difference"]  # --quick: around the default 256
 QUICK_SETTLE: tuple[int | str, ...] = (100, 300, 1000, "auto:1e-3", "auto:1e-5")  # and settling
 FALLBACK_REFERENCE_SETTLE = 1000  # [periods] when the ladder has no fixed settling
-RICHARDSON_ORDER = 2  # the central-difference scheme where the force is smooth
-LOW_ORDER_MARGIN = 3.0  # (2^2 - 1) / (2^1 - 1): the order-1 Richardson estimate over order 2's,
-# applied to the reference's error in --target when the observed order is below 1.5
 
 Progress = Callable[[int], None]
 
@@ -73,12 +85,15 @@ class Setting:
         The tolerance of ``"auto"`` (None: the scene's).
     steady_state : str
         ``"settle"`` or ``"shooting"``.
+    method : str
+        ``solver.method``.
     """
 
     steps_per_period: int
     settle_periods: int | None
     tolerance: float | None = None
     steady_state: str = "settle"
+    method: str = DEFAULT_METHOD
 
     @property
     def settle(self) -> str:
@@ -89,10 +104,26 @@ class Setting:
 
     @property
     def label(self) -> str:
-        """``"N=256 settle=300"``, ``"N=256 settle=auto:1e-4"`` or ``"N=256 shooting"``."""
+        """``"N=256 settle=300"``, ``"N=256 settle=auto:1e-4"`` or ``"N=256 shooting"``,
+        after the method's name unless it is the central difference (``"rk4 N=64
+        shooting"``)."""
+        method = "" if self.method == DEFAULT_METHOD else f"{self.method} "
         if self.steady_state == "shooting":
-            return f"N={self.steps_per_period} shooting"
-        return f"N={self.steps_per_period} settle={self.settle}"
+            return f"{method}N={self.steps_per_period} shooting"
+        return f"{method}N={self.steps_per_period} settle={self.settle}"
+
+    def overrides(self) -> list[str]:
+        """The ``--set KEY=VALUE`` of ``hertzsweep sweep`` that reproduce this setting."""
+        settle = self.settle_periods if self.settle_periods is not None else '"auto"'
+        sets = [
+            f"solver.method={self.method}",
+            f"solver.steps_per_period={self.steps_per_period}",
+            f"sweep.steady_state={self.steady_state}",
+            f"sweep.settle_periods={settle}",
+        ]
+        if self.tolerance is not None:
+            sets.append(f"sweep.tolerance={format_tolerance(self.tolerance)}")
+        return sets
 
     def apply(self, scene: Scene) -> Scene:
         """A copy of the scene with these settings."""
@@ -102,7 +133,7 @@ class Setting:
             tolerance=scene.sweep.tolerance if self.tolerance is None else self.tolerance,
             steady_state=self.steady_state,
         )
-        solver = replace(scene.solver, steps_per_period=self.steps_per_period)
+        solver = replace(scene.solver, steps_per_period=self.steps_per_period, method=self.method)
         return replace(scene, sweep=sweep, solver=solver)
 
     @classmethod
@@ -114,6 +145,7 @@ class Setting:
             fixed,
             None if fixed is not None else scene.sweep.tolerance,
             scene.sweep.steady_state,
+            scene.solver.method,
         )
 
 
@@ -196,58 +228,75 @@ def build_ladder(
     settle: Sequence[int | str | tuple[int | None, float | None]] | None = None,
     quick: bool = False,
     shooting: bool = True,
+    methods: Sequence[str] | None = None,
 ) -> Ladder:
     """The ladder of settings for a scene (see the module docstring).
 
     Parameters
     ----------
     scene : Scene
-        The scene whose settings are varied; its own N and settling are the axes' base.
+        The scene whose settings are varied; its own N, settling and method are the axes'
+        base.
     steps : sequence of int, optional
-        Steps per period of the steps rungs (default 32 .. 2048; ``quick``: 64 .. 1024).
-        The largest is the reference's.
+        Steps per period of every method's steps rungs (default each method's own,
+        :data:`METHOD_STEPS`; ``quick``: :data:`QUICK_METHOD_STEPS`). The reference
+        method's largest is the reference's.
     settle : sequence, optional
         Settling of the settle rungs: periods, ``"auto"`` or ``"auto:TOL"`` (or parsed
         ``(periods, tolerance)`` pairs). The longest fixed one is the reference's.
     quick : bool
-        Fewer rungs (:data:`QUICK_STEPS`, :data:`QUICK_SETTLE`).
+        Fewer rungs (:data:`QUICK_METHOD_STEPS`, :data:`QUICK_SETTLE`).
     shooting : bool
-        Include the shooting rungs, one per N.
+        Include the shooting rungs, one per N of each method.
+    methods : sequence of str, optional
+        The methods on the ladder (default every one, the scene's first); the one of
+        highest order (:data:`RICHARDSON_ORDER`) gives the reference.
 
-    Rungs at or below the scene's stability limit
+    Rungs at or below their method's stability limit on the scene
     (:func:`hertzsweep.core.model.stability_limit`) are left out with a note; the
     reference must be above it.
     """
-    steps = tuple(sorted(set(steps or (QUICK_STEPS if quick else DEFAULT_STEPS))))
+    methods = _ladder_methods(scene, methods)
     raw_settle = settle if settle is not None else (QUICK_SETTLE if quick else DEFAULT_SETTLE)
     settles = [s if isinstance(s, tuple) else parse_settle(s) for s in raw_settle]
     base = Setting.of_scene(scene)
     base_settle = replace(base, steady_state="settle")
+    axes = {m: _method_steps(m, steps, quick) for m in methods}
     notes: list[str] = []
-    candidates: list[Setting] = [replace(base_settle, steps_per_period=n) for n in steps]
-    candidates += [Setting(base.steps_per_period, p, t) for p, t in settles]
-    if shooting:
-        candidates += [Setting(n, base.settle_periods, base.tolerance, "shooting") for n in steps]
+    candidates: list[Setting] = []
+    for method, ns in axes.items():
+        candidates += [replace(base_settle, steps_per_period=n, method=method) for n in ns]
+        if method == methods[0]:
+            candidates += [replace(base_settle, settle_periods=p, tolerance=t) for p, t in settles]
+        if shooting:
+            candidates += [
+                Setting(n, base.settle_periods, base.tolerance, "shooting", method) for n in ns
+            ]
     if base.steady_state == "settle" or shooting:
         candidates.append(base)  # the scene's own settings, to compare with (once)
     fixed = [p for p, _ in settles if p is not None]
     if base.settle_periods is not None:
         fixed.append(base.settle_periods)
     longest = max(fixed) if fixed else FALLBACK_REFERENCE_SETTLE
-    finest = max(steps)
-    reference = Setting(finest, longest)
-    partner = Setting(finest // 2, longest) if finest // 2 >= 2 else None
-    limit = stability_limit(scene)
-    if reference.steps_per_period <= limit:
+    method = max(methods, key=lambda m: RICHARDSON_ORDER[m])
+    finest = max(axes[method])
+    reference = Setting(finest, longest, method=method)
+    partner = Setting(finest // 2, longest, method=method) if finest // 2 >= 2 else None
+    limits = {
+        m: stability_limit(replace(scene, solver=replace(scene.solver, method=m)))
+        for m in SOLVER_METHODS
+    }
+    if reference.steps_per_period <= limits[method]:
         reason = (
-            f"the finest rung N={finest} is at or below the stability limit {limit:.1f} "
-            "steps per period; give finer steps"
+            f"the finest rung N={finest} of {method} is at or below its stability limit "
+            f"{limits[method]:.1f} steps per period; give finer steps"
         )
         raise ConfigError("--steps", "", reason)
     settings: list[Setting] = []
     for setting in [*candidates, partner, reference]:
         if setting is None or setting in settings:
             continue
+        limit = limits[setting.method]
         if setting.steps_per_period <= limit:
             note = f"{setting.label} skipped: at or below the stability limit {limit:.1f}"
             if note not in notes:
@@ -259,6 +308,31 @@ def build_ladder(
     if partner is not None and partner not in settings:
         partner = None
     return Ladder(tuple(settings), reference, partner, base, tuple(notes))
+
+
+def _ladder_methods(scene: Scene, methods: Sequence[str] | None) -> tuple[str, ...]:
+    """The ladder's methods, the scene's first (every method by default)."""
+    chosen = tuple(dict.fromkeys(methods if methods is not None else SOLVER_METHODS))
+    unknown = [m for m in chosen if m not in SOLVER_METHODS]
+    if unknown or not chosen:
+        raise ConfigError(
+            "--methods",
+            "",
+            f"expected some of {', '.join(SOLVER_METHODS)}, got {','.join(unknown)!r}",
+        )
+    own = scene.solver.method
+    return tuple(sorted(chosen, key=lambda m: m != own))
+
+
+def _method_steps(method: str, steps: Sequence[int] | None, quick: bool) -> tuple[int, ...]:
+    if steps:
+        return tuple(sorted(set(steps)))
+    return (QUICK_METHOD_STEPS if quick else METHOD_STEPS)[method]
+
+
+def parse_methods(text: str) -> tuple[str, ...]:
+    """``"central-difference,rk4"`` -> the methods (checked by :func:`build_ladder`)."""
+    return tuple(item.strip() for item in text.split(",") if item.strip())
 
 
 # --------------------------------------------------------------------------- running
@@ -281,9 +355,9 @@ def _accuracy_scene(scene: Scene) -> Scene:
     return replace(scene, lockin=replace(scene.lockin, harmonics=harmonics))
 
 
-def _warm_up(scene: Scene, methods: set[str]) -> None:
-    """One short dwell per method, so that loading the compiled kernels is not charged
-    to the first rung."""
+def _warm_up(scene: Scene, kinds: set[tuple[str, str]]) -> None:
+    """One short dwell per (method, steady state), so that loading the compiled kernels
+    is not charged to the first rung of each."""
     first = scene.sweep.start
     one_dwell = replace(
         scene.sweep,
@@ -293,10 +367,11 @@ def _warm_up(scene: Scene, methods: set[str]) -> None:
         measure_periods=2,
     )
     excitation = replace(scene.excitation, sigma=scene.excitation.sigma[:1])
-    for method in sorted(methods):
-        sweep = replace(one_dwell, steady_state=method)
+    for method, steady_state in sorted(kinds):
+        sweep = replace(one_dwell, steady_state=steady_state)
+        solver = replace(scene.solver, method=method)
         try:
-            run_sweep(replace(scene, sweep=sweep, excitation=excitation))
+            run_sweep(replace(scene, sweep=sweep, solver=solver, excitation=excitation))
         except HertzsweepError:
             pass  # the rung itself will report it
 
@@ -318,7 +393,7 @@ def run_ladder(
     rungs, notes
     """
     scene = _accuracy_scene(scene)
-    _warm_up(scene, {setting.steady_state for setting in ladder.settings})
+    _warm_up(scene, {(setting.method, setting.steady_state) for setting in ladder.settings})
     rungs: list[Rung] = []
     notes: list[str] = []
     for setting in ladder.settings:
@@ -398,10 +473,12 @@ def sweep_errors(result: SweepResult, reference: SweepResult) -> Errors:
     )
 
 
-def richardson_error(fine: Rung, coarse: Rung, order: float = RICHARDSON_ORDER) -> Errors:
+def richardson_error(fine: Rung, coarse: Rung, order: float | None = None) -> Errors:
     """Estimated error of the fine rung: ``|A_fine - A_coarse| / (r^p - 1)`` with the
-    step ratio r (2 for the reference and its partner) and order p. The jump difference
-    is reported as is (jump frequencies lie on the grid)."""
+    step ratio r (2 for the reference and its partner) and order p (default its method's,
+    :data:`RICHARDSON_ORDER`). The jump difference is reported as is (jump frequencies
+    lie on the grid)."""
+    order = RICHARDSON_ORDER[fine.setting.method] if order is None else order
     r = fine.setting.steps_per_period / coarse.setting.steps_per_period
     diff = sweep_errors(coarse.result, fine.result)
     scale = r**order - 1.0
@@ -416,14 +493,14 @@ def successive_difference(a: SweepResult, b: SweepResult) -> float:
 def observed_orders(rungs: Sequence[Rung]) -> list[float]:
     """Observed order per rung, along each axis of step halving.
 
-    Rungs with the same settling and method form an axis; for N with 2N and 4N on it,
+    Rungs with the same settling, steady state and method form an axis; for N with 2N and 4N on it,
     ``p_N = log2(d(N, 2N) / d(2N, 4N))`` with d the max-norm successive difference of H1
     (:func:`successive_difference`). NaN for the other rungs and where a difference
     vanishes.
     """
-    axes: dict[tuple[str, str], dict[int, int]] = {}
+    axes: dict[tuple[str, str, str], dict[int, int]] = {}
     for i, rung in enumerate(rungs):
-        key = (rung.setting.settle, rung.setting.steady_state)
+        key = _axis(rung.setting)
         axes.setdefault(key, {})[rung.setting.steps_per_period] = i
     orders = [math.nan] * len(rungs)
     for axis in axes.values():
@@ -433,6 +510,11 @@ def observed_orders(rungs: Sequence[Rung]) -> list[float]:
                 d1, d2 = successive_difference(a, b), successive_difference(b, c)
                 orders[i] = math.log2(d1 / d2) if d1 > 0 and d2 > 0 else math.nan
     return orders
+
+
+def _axis(setting: Setting) -> tuple[str, str, str]:
+    """The steps axis a setting is on: its settling, steady state and method."""
+    return (setting.settle, setting.steady_state, setting.method)
 
 
 def fitted_order(steps_per_period: Sequence[int], errors: Sequence[float]) -> float:
@@ -487,17 +569,19 @@ class AccuracyReport:
     errors : per rung, against the reference.
     orders : per rung, the observed order p_N along its axis of step halving (NaN where
         N, 2N and 4N are not all on it).
-    pareto : per rung, on the Pareto front of (cost_steps, error H1).
+    pareto : per rung, on the Pareto front of (wall time, error H1).
     observed_order : p of the finest triple N, 2N, 4N on the steps axis at the scene's
-        settling and method.
+        settling, steady state and method.
     reference_error : the reference's error estimated by Richardson extrapolation.
     settle_check, settle_check_label : the reference against the rung at the same N by
         shooting (its settling error) or, without shooting, with shorter settling (a
         bound on what settling longer still changes).
     scene_setting : the scene's own settings (a rung of the ladder).
-    target, recommended : the ``--target`` and the index of the recommended rung.
+    target, recommended : the ``--target`` and the index of the recommended rung: the
+        fastest (wall time) whose H1 error meets the target.
     target_margin : the reference's estimated H1 error added to each rung's error when
         checking it against the target.
+    richardson_order : the order p of that estimate (the reference's method's).
     notes : what was skipped or failed, and why.
     """
 
@@ -513,6 +597,7 @@ class AccuracyReport:
     target: float | None = None
     recommended: int | None = None
     target_margin: float = 0.0
+    richardson_order: float = RICHARDSON_ORDER[DEFAULT_METHOD]
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -536,17 +621,14 @@ def assess(
         raise HertzsweepError("the reference rung did not run")
     errors = [sweep_errors(r.result, reference.result) for r in rungs]
     orders = observed_orders(rungs)  # the reference can be the 4N of a triple
-    scene_axis = (ladder.scene_setting.settle, ladder.scene_setting.steady_state)
-    on_axis = [
-        (r.setting.steps_per_period, p)
-        for r, p in zip(rungs, orders, strict=True)
-        if (r.setting.settle, r.setting.steady_state) == scene_axis and math.isfinite(p)
-    ]
-    observed = max(on_axis)[1] if on_axis else math.nan
+    observed = _finest_order(rungs, orders, _axis(ladder.scene_setting))
+    method = reference.setting.method
+    base = replace(ladder.scene_setting, steady_state="settle", method=method)
+    reference_order = _finest_order(rungs, orders, _axis(base))
     partner = next((r for r in rungs if r.setting == ladder.partner), None)
     reference_error = richardson_error(reference, partner) if partner is not None else None
     settle_check, settle_label = _settle_check(rungs)
-    cost = [r.cost_steps for r in rungs]
+    cost = [r.wall_time for r in rungs]  # a step costs differently per method
     h1 = [e.h1 for e in errors]
     report = AccuracyReport(
         rungs=rungs,
@@ -559,16 +641,21 @@ def assess(
         settle_check_label=settle_label,
         scene_setting=ladder.scene_setting,
         target=target,
+        richardson_order=RICHARDSON_ORDER[method],
         notes=[*ladder.notes, *notes],
     )
     margin = reference_error.h1 if reference_error is not None else 0.0
-    if reference_error is not None and math.isfinite(observed) and observed < 1.5:
-        margin *= LOW_ORDER_MARGIN
+    order = RICHARDSON_ORDER[method]
+    low = math.isfinite(reference_order) and reference_order < order - 0.5
+    if reference_error is not None and low:
+        factor = 2.0**order - 1.0  # the order-1 estimate over the order-p one
+        margin *= factor
         report.notes.append(
-            f"observed order {observed:.2f} is not 2 (a force that jumps between steps, as "
-            "the n = 0 contact damping, makes the scheme first order): the order-2 Richardson "
-            "estimate understates the reference's error (3x at order 1), so --target counts "
-            "3x that estimate"
+            f"observed order {reference_order:.2f} of {method} is not {order:g} (a force that "
+            "jumps between steps, as the n = 0 contact damping, makes the central difference "
+            f"first order): the order-{order:g} Richardson estimate understates the "
+            f"reference's error ({factor:.3g}x at order 1), so --target counts {factor:.3g}x "
+            "that estimate"
         )
     report.target_margin = margin
     if target is not None:
@@ -576,18 +663,32 @@ def assess(
     return report
 
 
+def _finest_order(rungs: list[Rung], orders: list[float], axis: tuple[str, str, str]) -> float:
+    """The observed order of the finest triple N, 2N, 4N on an axis (NaN if none)."""
+    on_axis = [
+        (r.setting.steps_per_period, p)
+        for r, p in zip(rungs, orders, strict=True)
+        if _axis(r.setting) == axis and math.isfinite(p)
+    ]
+    return max(on_axis)[1] if on_axis else math.nan
+
+
 def _settle_check(rungs: list[Rung]) -> tuple[Errors | None, str]:
-    """The reference against the rung at its N that best isolates its settling error:
-    shooting (no settling error at all) if present, else the longest other settling."""
-    reference = rungs[-1]
+    """The reference against the rung at its N and method that best isolates its settling
+    error: shooting (no settling error at all) if present, else the longest other
+    settling."""
+    reference = rungs[-1].setting
     same_n = [
-        r for r in rungs[:-1] if r.setting.steps_per_period == reference.setting.steps_per_period
+        r
+        for r in rungs[:-1]
+        if (r.setting.steps_per_period, r.setting.method)
+        == (reference.steps_per_period, reference.method)
     ]
     if not same_n:
         return None, ""
     shooting = [r for r in same_n if r.setting.steady_state == "shooting"]
     other = shooting[0] if shooting else max(same_n, key=lambda r: r.cost_steps)
-    return sweep_errors(other.result, reference.result), other.setting.label
+    return sweep_errors(other.result, rungs[-1].result), other.setting.label
 
 
 def measure_accuracy(

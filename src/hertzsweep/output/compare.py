@@ -66,8 +66,10 @@ TOLERANCES: dict[str, Tolerance] = {
     # than a sweep step changes no sweep: the same resolution.
     "bifurcation_frequency_ratio": Tolerance(GRID, steps=1.0),
     "bifurcation_frequency": Tolerance(GRID, steps=1.0),
-    # Wall-clock time measures the machine and its load, not the result.
+    # Wall-clock time measures the machine and its load, not the result; so does the
+    # Pareto front of wall time and error an accuracy run draws from it.
     "wall_time": Tolerance(SKIP),
+    "pareto": Tolerance(SKIP),
     # Flags (settled, periodic, stable, case_failed, ...): a flipped flag is a changed
     # result; there is no "nearly settled".
     "<flag>": Tolerance(EXACT),

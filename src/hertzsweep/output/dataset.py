@@ -149,6 +149,7 @@ ATTRIBUTES: dict[str, tuple[str, str | None] | tuple[str, str | None, dict[str, 
     "steps_per_period": ("integration steps per excitation period", "1"),
     "settle": ("settling: periods, or auto:tolerance", LABEL),
     "steady_state": ("steady-state method: settle or shooting", LABEL),
+    "method": ("integration method (solver.method)", LABEL),
     "error_h1": (
         "max abs error of the H1 amplitude over the sweep, relative to the reference's largest H1",
         "1",
@@ -161,7 +162,7 @@ ATTRIBUTES: dict[str, tuple[str, str | None] | tuple[str, str | None, dict[str, 
     "error_jump": ("max abs error of the jump frequency ratio (inf: a jump missed or added)", "1"),
     "cost_steps": ("integration steps of the sweep", "1"),
     "wall_time": ("wall-clock time of the sweep", "s"),
-    "pareto": ("on the Pareto front of cost_steps and error_h1", "1"),
+    "pareto": ("on the Pareto front of wall_time and error_h1", "1"),
     "order_h1": ("observed order of accuracy of H1 from N, 2N, 4N (steps rungs)", "1"),
     "settled_fraction": ("share of the dwells that reached the steady state", "1"),
     # measured and fit (units None: in the parameter's own units, parameter_units)
@@ -569,14 +570,15 @@ def accuracy_dataset(report: AccuracyReport, scene: Scene, history: str | None =
     """The accuracy dataset of a :class:`hertzsweep.drivers.accuracy.AccuracyReport`.
 
     Dimension ``setting`` (the rungs that ran, reference last) with coordinates
-    ``setting_label``, ``steps_per_period``, ``settle`` ("300", "auto:1e-4") and
-    ``steady_state``; the errors against the reference, the cost, the Pareto flag and the
-    observed order ``order_h1`` per rung. Attributes: ``observed_order``,
+    ``setting_label``, ``steps_per_period``, ``settle`` ("300", "auto:1e-4"),
+    ``steady_state`` and ``method``; the errors against the reference, the cost, the
+    Pareto flag and the observed order ``order_h1`` per rung. Attributes: ``observed_order``,
     ``reference_label``, the reference's Richardson error estimates
     ``reference_error_h1`` (``_h2``, ``_force``), ``settle_check_h1``, ``scene_setting``,
-    ``target``, ``target_margin`` (the reference's error counted against it) and
-    ``recommended`` (label; empty when none meets the target or no target was given),
-    ``notes``.
+    ``target``, ``target_margin`` (the reference's error counted against it),
+    ``recommended`` (label of the fastest setting meeting the target; empty when none
+    does or no target was given) and ``recommended_command`` (the ``--set`` options of
+    ``hertzsweep sweep`` that reproduce it), ``notes``.
     """
     rungs = report.rungs
     settings = [r.setting for r in rungs]
@@ -585,6 +587,7 @@ def accuracy_dataset(report: AccuracyReport, scene: Scene, history: str | None =
         "steps_per_period": np.array([s.steps_per_period for s in settings], dtype=INDEX),
         "settle": np.array([s.settle for s in settings], dtype=object),
         "steady_state": np.array([s.steady_state for s in settings], dtype=object),
+        "method": np.array([s.method for s in settings], dtype=object),
     }
     coords = {name: ("setting", values, attrs(name)) for name, values in setting_values.items()}
     errors = report.errors
@@ -610,6 +613,9 @@ def accuracy_dataset(report: AccuracyReport, scene: Scene, history: str | None =
         "reference_label": rungs[-1].setting.label,
         "scene_setting": report.scene_setting.label,
         "recommended": "" if recommended is None else rungs[recommended].setting.label,
+        "recommended_command": ""
+        if recommended is None
+        else " ".join(f"--set {o}" for o in rungs[recommended].setting.overrides()),
         "target": float("nan") if report.target is None else float(report.target),
         "target_margin": float(report.target_margin),
         "error_metric": "error_h1: max abs H1 error over the sweep / the reference's max H1",
@@ -653,6 +659,7 @@ def accuracy_command(report: AccuracyReport) -> dict[str, Any]:
                 "settle_periods": rung.setting.settle_periods,
                 "tolerance": rung.setting.tolerance,
                 "steady_state": rung.setting.steady_state,
+                "method": rung.setting.method,
             }
             for rung in report.rungs
         ],

@@ -173,8 +173,8 @@ def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
     """The table, the reference check, the observed order, the Pareto front and the
     recommendation."""
     lines = [
-        f"{'setting':24s} {'err H1':>9s} {'err H2':>9s} {'err N':>9s} {'err jump':>8s} "
-        f"{'steps':>11s} {'wall s':>7s} {'order':>5s}  pareto"
+        f"{'setting':28s} {'err H1':>9s} {'err H2':>9s} {'err N':>9s} {'err jump':>8s} "
+        f"{'steps':>11s} {'wall ms':>9s} {'order':>5s}  pareto"
     ]
     scene_index = report.index(report.scene_setting)
     for i, (rung, err) in enumerate(zip(report.rungs, report.errors, strict=True)):
@@ -186,9 +186,9 @@ def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
         if i == report.recommended:
             mark += " recommended"
         lines.append(
-            f"{rung.setting.label:24s} {_number(err.h1):>9s} {_number(err.h2):>9s} "
+            f"{rung.setting.label:28s} {_number(err.h1):>9s} {_number(err.h2):>9s} "
             f"{_number(err.force):>9s} {_number(err.jump, '.4f'):>8s} {rung.cost_steps:11d} "
-            f"{rung.wall_time:7.2f} {_number(report.orders[i], '.2f'):>5s}  {mark.strip()}"
+            f"{1e3 * rung.wall_time:9.1f} {_number(report.orders[i], '.2f'):>5s}  {mark.strip()}"
         )
     lines += [
         "",
@@ -199,7 +199,8 @@ def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
     if report.reference_error is not None:
         e = report.reference_error
         lines.append(
-            f"reference {ref}: Richardson estimate of its own error (order 2): "
+            f"reference {ref}: Richardson estimate of its own error "
+            f"(order {report.richardson_order:g}): "
             f"H1 {_number(e.h1)}, H2 {_number(e.h2)}, N {_number(e.force)}"
             + ("" if e.jump == 0 else f", jumps differ by {_number(e.jump, '.4f')}")
         )
@@ -211,11 +212,13 @@ def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
     order = _number(report.observed_order, ".2f")
     lines.append(f"observed order (steps axis, finest triple N, 2N, 4N): {order}")
     front = sorted(
-        (r.cost_steps, r.setting.label)
+        (r.wall_time, r.setting.label)
         for r, on in zip(report.rungs, report.pareto, strict=True)
         if on
     )
-    lines.append("Pareto front (steps, err H1), cheapest first: " + ", ".join(f[1] for f in front))
+    lines.append(
+        "Pareto front (wall time, err H1), fastest first: " + ", ".join(f[1] for f in front)
+    )
     if report.target is not None:
         lines.append(_recommendation(report))
     lines += [f"note: {note}" for note in report.notes]
@@ -231,18 +234,19 @@ def _recommendation(report: AccuracyReport) -> str:
     text = (
         f"target {target:g} on H1 (max abs error relative to the largest H1, against the "
         f"reference): recommended {rung.setting.label}, error {err.h1:.2e}, "
-        f"{rung.cost_steps} steps"
+        f"{1e3 * rung.wall_time:.1f} ms"
     )
     scene_index = report.index(report.scene_setting)
     if scene_index is not None:
         scene_rung = report.rungs[scene_index]
-        ratio = rung.cost_steps / scene_rung.cost_steps
+        ratio = rung.wall_time / scene_rung.wall_time
         scene_error = report.errors[scene_index].h1
         text += (
-            f" ({ratio:.2f}x the scene's {scene_rung.setting.label}, whose error is "
-            f"{scene_error:.2e})"
+            f" ({ratio:.2f}x the time of the scene's {scene_rung.setting.label}, whose error "
+            f"is {scene_error:.2e})"
         )
-    return text
+    sets = " ".join(f"--set {o}" for o in rung.setting.overrides())
+    return f"{text}\nreproduce: hertzsweep sweep SCENE {sets}"
 
 
 __all__ = [
