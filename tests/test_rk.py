@@ -152,6 +152,26 @@ def test_the_kernel_refuses_a_step_beyond_rk4s_bound():
         osc.advance(osc.rest(w), w, 1)
 
 
+def test_crossing_is_the_hermite_interpolants_root():
+    # 2000 random steps whose ends lie on either side of q = -3/2 (d = 0): the fraction
+    # is the cubic's root in (0, 1) to round-off (1e-12 of the step: the root's condition
+    # number is below 1e3 for these slopes), the one nearest the start when it has three
+    rng = np.random.default_rng(7)
+    worst, tested = 0.0, 0
+    for _ in range(2000):
+        q0, q1 = -1.5 + rng.uniform(-0.2, 0.2, 2) * np.array([1.0, -1.0])
+        v0, v1, h = rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0), rng.uniform(0.01, 0.5)
+        c = [2 * (q0 - q1) + h * (v0 + v1), 3 * (q1 - q0) - h * (2 * v0 + v1), h * v0, q0 + 1.5]
+        roots = np.roots(c) if abs(c[0]) > 1e-14 else np.roots(c[1:])
+        inside = np.sort([r.real for r in roots if abs(r.imag) < 1e-9 and 0 <= r.real <= 1])
+        slope = abs(np.polyval(np.polyder(c), inside))
+        if inside.size != 1 or slope.min() < 1e-3:  # three roots, or a graze: ill-posed
+            continue
+        worst = max(worst, abs(rk._crossing(q0, v0, q1, v1, h) - inside[0]))
+        tested += 1
+    assert tested > 500 and worst <= 1e-12, (tested, worst)
+
+
 # ------------------------------------------------------------- period map, shooting, branch
 MAP_CASES = {
     "no-loss": NO_LOSS,

@@ -191,24 +191,31 @@ def _rk4_tangent(law, y, tangents, h, loads, side):
 @njit(cache=CACHE)
 def _crossing(q0, v0, q1, v1, h):
     """The fraction of a step where its cubic Hermite interpolant of q crosses
-    ``q = -3/2`` (d = 0), by bisection (the ends are on either side)."""
+    ``q = -3/2`` (d = 0): Newton's method from the chord's root, kept inside the bracket
+    by bisection where a step would leave it (the ends are on either side), to round-off.
+    """
+    c0 = q0 + 1.5  # H(s) + 3/2 = c0 + c1 s + c2 s^2 + c3 s^3
+    c1 = h * v0
+    c2 = 3.0 * (q1 - q0) - h * (2.0 * v0 + v1)
+    c3 = 2.0 * (q0 - q1) + h * (v0 + v1)
     lo, hi = 0.0, 1.0
-    below = q0 <= -1.5
-    for _ in range(60):
-        s = 0.5 * (lo + hi)
-        s2 = s * s
-        s3 = s2 * s
-        q = (
-            (2.0 * s3 - 3.0 * s2 + 1.0) * q0
-            + (s3 - 2.0 * s2 + s) * h * v0
-            + (3.0 * s2 - 2.0 * s3) * q1
-            + (s3 - s2) * h * v1
-        )
-        if (q <= -1.5) == below:
+    rising = c0 < 0.0  # the sign of H + 3/2 at s = 0 is c0's; at s = 1 the other
+    s = c0 / (c0 - (q1 + 1.5))  # the chord's root
+    for _ in range(100):
+        f = c0 + s * (c1 + s * (c2 + s * c3))
+        if (f < 0.0) == rising:
             lo = s
         else:
             hi = s
-    return 0.5 * (lo + hi)
+        slope = c1 + s * (2.0 * c2 + 3.0 * s * c3)
+        step = f / slope if slope != 0.0 else np.inf
+        trial = s - step
+        if not (lo < trial < hi):  # outside the bracket (or no slope): bisect
+            trial = 0.5 * (lo + hi)
+        if trial == s or hi - lo <= 4e-16:
+            return s
+        s = trial
+    return s
 
 
 @njit(cache=CACHE, inline="always")
@@ -278,24 +285,38 @@ def _singular_terms(law, crossing):
             p,
             _axpy(law.twozeta * an, dg, _scale(law.twozeta * g, dan)),
         )
+    if first[1] == 1.5:  # n = 3/2: one power with the Hertz term, integrated once
+        hertz = (hertz[0] + first[0], 1.5, _axpy(1.0, hertz[2], first[2]))
+        first = none
     return hertz, first, second
 
 
 @njit(cache=CACHE, inline="always")
-def _defects(p, lo, hi, impact):
-    """For ``g = s^p`` over one step spanning ``lo <= s <= hi``: ``(D, Dq)``, the exact
-    integral of g minus RK4's quadrature of it (Simpson's rule) and the exact double
-    integral (the displacement it adds at the step's end) minus RK4's, then their
-    derivatives by ``(lo, hi)``. ``impact``: s grows with tau (the step starts at lo), else
-    it falls (the step starts at hi)."""
+def _power(s, p):
+    """``s^p`` (s >= 0), the half-integer powers by a square root (no ``pow``)."""
+    if p == 1.5:
+        return s * math.sqrt(s)
+    if p == 0.5:
+        return math.sqrt(s)
+    return s**p
+
+
+@njit(cache=CACHE, inline="always")
+def _defects(p, span, powers, impact):
+    """For ``g = s^p`` over one step spanning ``span = (lo, hi)`` in s, ``powers = (g(lo),
+    g(mid), g(hi))``: ``(D, Dq)``, the exact integral of g minus RK4's quadrature of it
+    (Simpson's rule) and the exact double integral (the displacement it adds at the
+    step's end) minus RK4's, then their derivatives by ``(lo, hi)``. ``impact``: s grows
+    with tau (the step starts at lo), else it falls (the step starts at hi)."""
+    lo, hi = span
+    g_lo, g_mid, g_hi = powers
     mid = 0.5 * (lo + hi)
-    g_lo, g_hi, g_mid = lo**p, hi**p, mid**p
-    s_lo = p * lo ** (p - 1.0) if lo > 0.0 else 0.0  # lo = 0 only at the crossing itself
-    s_hi = p * hi ** (p - 1.0) if hi > 0.0 else 0.0
-    s_mid = p * mid ** (p - 1.0) if mid > 0.0 else 0.0
+    s_lo = p * g_lo / lo if lo > 0.0 else 0.0  # lo = 0 only at the crossing itself
+    s_hi = p * g_hi / hi if hi > 0.0 else 0.0
+    s_mid = p * g_mid / mid if mid > 0.0 else 0.0
     step = hi - lo
-    one = (hi ** (p + 1.0) - lo ** (p + 1.0)) / (p + 1.0)
-    two = (hi ** (p + 2.0) - lo ** (p + 2.0)) / (p + 2.0)
+    one = (hi * g_hi - lo * g_lo) / (p + 1.0)
+    two = (hi * hi * g_hi - lo * lo * g_lo) / (p + 2.0)
     simpson = g_lo + 4.0 * g_mid + g_hi
     defect = one - step / 6.0 * simpson
     by_defect = (
@@ -315,6 +336,16 @@ def _defects(p, lo, hi, impact):
         step * g_hi - step / 3.0 * inner - step * step / 6.0 * (s_hi + s_mid),
     )
     return defect, two - lo * one - step * step / 6.0 * inner, by_defect, by_shift
+
+
+@njit(cache=CACHE, inline="always")
+def _set(values, index, value):
+    """``values`` (a 3-tuple) with ``values[index] = value``."""
+    return (
+        value if index == 0 else values[0],
+        value if index == 1 else values[1],
+        value if index == 2 else values[2],
+    )
 
 
 @njit(cache=CACHE)
@@ -340,11 +371,23 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
     lo, hi = 0.0, first
     dlo, dhi = ZERO, dfirst
     limit = min(WINDOW, reach)
+    k = fourier.shape[0]
+    phases = np.empty((k, 3))  # k w, cos and sin of k w tau_e
+    for i in range(k):
+        kw = drive.harmonics[i] * w
+        phases[i, 0], phases[i, 1], phases[i, 2] = kw, math.cos(kw * tau_e), math.sin(kw * tau_e)
+    at_lo = (0.0, 0.0, 0.0)  # each term's s^p at lo (the last piece's hi)
     while True:
-        for beta, p, dbeta in terms3:
+        mid = 0.5 * (lo + hi)
+        at_hi = (0.0, 0.0, 0.0)
+        for t in range(3):
+            beta, p, dbeta = terms3[t]
             if beta == 0.0:
                 continue
-            defect, shift, by_defect, by_shift = _defects(p, lo, hi, impact)
+            g_mid, g_hi = _power(mid, p), _power(hi, p)
+            at_hi = _set(at_hi, t, g_hi)
+            powers = (at_lo[t], g_mid, g_hi)
+            defect, shift, by_defect, by_shift = _defects(p, (lo, hi), powers, impact)
             ddefect = _axpy(by_defect[0], dlo, _scale(by_defect[1], dhi))
             dshift = _axpy(by_shift[0], dlo, _scale(by_shift[1], dhi))
             arm, darm = (hi, dhi) if impact else (-lo, _scale(-1.0, dlo))  # tau_b - tau_e
@@ -355,14 +398,15 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
             ddv = _axpy(-defect, dbeta, _axpy(-beta, ddefect, ddv))
             ddq = _axpy(-moment, dbeta, _axpy(-beta, dmoment, ddq))
             sums[0] += beta * defect / h
-            if fourier.shape[0] > 0:
-                slope = _defects(p + 1.0, lo, hi, impact)[0]
-                for i in range(fourier.shape[0]):
-                    kw = drive.harmonics[i] * w
-                    c, s = math.cos(kw * tau_e), math.sin(kw * tau_e)
+            if k > 0:
+                above = (lo * powers[0], mid * g_mid, hi * g_hi)  # s^(p + 1)
+                slope = _defects(p + 1.0, (lo, hi), above, impact)[0]
+                for i in range(k):
+                    kw, c, s = phases[i, 0], phases[i, 1], phases[i, 2]
                     # x cos(k w tau) with cos(k w (tau_e + direction s)) to first order in s
                     fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) / h
                     fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) / h
+        at_lo = at_hi
         if hi >= limit:
             return dq, dv, ddq, ddv
         if hi + h < reach:
