@@ -104,7 +104,7 @@ def _acceleration(law, q, v, load, side):
     return load - force, force - 1.0, root
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, inline="always")
 def _rk4(law, q, v, h, loads, side):
     """One RK4 step of ``h`` with the loads ``1 + sigma sin`` at its start, middle and end:
     ``(q, q', (x1, x2, x3, x4), sqrt(d) at the start)``, x the stages' N/F_s - 1."""
@@ -212,6 +212,8 @@ def _crossing(q0, v0, q1, v1, h):
         trial = s - step
         if not (lo < trial < hi):  # outside the bracket (or no slope): bisect
             trial = 0.5 * (lo + hi)
+        elif abs(step) <= 1e-15:  # quadratic convergence: this step is the last one
+            return trial
         if trial == s or hi - lo <= 4e-16:
             return s
         s = trial
@@ -306,36 +308,50 @@ def _defects(p, span, powers, impact):
     """For ``g = s^p`` over one step spanning ``span = (lo, hi)`` in s, ``powers = (g(lo),
     g(mid), g(hi))``: ``(D, Dq)``, the exact integral of g minus RK4's quadrature of it
     (Simpson's rule) and the exact double integral (the displacement it adds at the
-    step's end) minus RK4's, then their derivatives by ``(lo, hi)``. ``impact``: s grows
-    with tau (the step starts at lo), else it falls (the step starts at hi)."""
+    step's end) minus RK4's. ``impact``: s grows with tau (the step starts at lo), else
+    it falls (the step starts at hi)."""
     lo, hi = span
     g_lo, g_mid, g_hi = powers
+    step = hi - lo
+    one = (hi * g_hi - lo * g_lo) / (p + 1.0)
+    two = (hi * hi * g_hi - lo * lo * g_lo) / (p + 2.0)
+    defect = one - step / 6.0 * (g_lo + 4.0 * g_mid + g_hi)
+    if impact:  # int (tau_b - tau) g: tau_b at hi
+        return defect, hi * one - two - step * step / 6.0 * (g_lo + 2.0 * g_mid)
+    return defect, two - lo * one - step * step / 6.0 * (g_hi + 2.0 * g_mid)
+
+
+@njit(cache=CACHE, inline="always")
+def _defect_slopes(p, span, powers, of):
+    """The derivatives of :func:`_defects`' ``D`` and ``Dq`` by ``(lo, hi)``; ``of =
+    (D, impact)``."""
+    lo, hi = span
+    g_lo, g_mid, g_hi = powers
+    _, impact = of
     mid = 0.5 * (lo + hi)
     s_lo = p * g_lo / lo if lo > 0.0 else 0.0  # lo = 0 only at the crossing itself
     s_hi = p * g_hi / hi if hi > 0.0 else 0.0
     s_mid = p * g_mid / mid if mid > 0.0 else 0.0
     step = hi - lo
     one = (hi * g_hi - lo * g_lo) / (p + 1.0)
-    two = (hi * hi * g_hi - lo * lo * g_lo) / (p + 2.0)
     simpson = g_lo + 4.0 * g_mid + g_hi
-    defect = one - step / 6.0 * simpson
     by_defect = (
         -g_lo + simpson / 6.0 - step / 6.0 * (s_lo + 2.0 * s_mid),
         g_hi - simpson / 6.0 - step / 6.0 * (2.0 * s_mid + s_hi),
     )
-    if impact:  # int (tau_b - tau) g: tau_b at hi
+    if impact:
         inner = g_lo + 2.0 * g_mid
         by_shift = (
             -step * g_lo + step / 3.0 * inner - step * step / 6.0 * (s_lo + s_mid),
             one - step / 3.0 * inner - step * step / 6.0 * s_mid,
         )
-        return defect, hi * one - two - step * step / 6.0 * inner, by_defect, by_shift
+        return by_defect, by_shift
     inner = g_hi + 2.0 * g_mid
     by_shift = (
         -one + step / 3.0 * inner - step * step / 6.0 * s_mid,
         step * g_hi - step / 3.0 * inner - step * step / 6.0 * (s_hi + s_mid),
     )
-    return defect, two - lo * one - step * step / 6.0 * inner, by_defect, by_shift
+    return by_defect, by_shift
 
 
 @njit(cache=CACHE, inline="always")
@@ -361,7 +377,7 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
     dfirst, dreach)``: the length of the split step's part on the contact side, ``reach``,
     their tangents."""
     tau_e, v_e, a_e, direction, w, _, _ = crossing
-    first, reach, dfirst, dreach = span
+    first, reach, dfirst, dreach, derivatives = span
     impact = direction > 0.0
     dq = 0.0
     dv = 0.0
@@ -387,16 +403,19 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
             g_mid, g_hi = _power(mid, p), _power(hi, p)
             at_hi = _set(at_hi, t, g_hi)
             powers = (at_lo[t], g_mid, g_hi)
-            defect, shift, by_defect, by_shift = _defects(p, (lo, hi), powers, impact)
-            ddefect = _axpy(by_defect[0], dlo, _scale(by_defect[1], dhi))
-            dshift = _axpy(by_shift[0], dlo, _scale(by_shift[1], dhi))
-            arm, darm = (hi, dhi) if impact else (-lo, _scale(-1.0, dlo))  # tau_b - tau_e
+            defect, shift = _defects(p, (lo, hi), powers, impact)
+            arm = hi if impact else -lo  # tau_b - tau_e
             moment = shift - defect * arm
-            dmoment = _axpy(-defect, darm, _axpy(-arm, ddefect, dshift))
             dv -= beta * defect
             dq -= beta * moment
-            ddv = _axpy(-defect, dbeta, _axpy(-beta, ddefect, ddv))
-            ddq = _axpy(-moment, dbeta, _axpy(-beta, dmoment, ddq))
+            if derivatives:
+                by_defect, by_shift = _defect_slopes(p, (lo, hi), powers, (defect, impact))
+                ddefect = _axpy(by_defect[0], dlo, _scale(by_defect[1], dhi))
+                dshift = _axpy(by_shift[0], dlo, _scale(by_shift[1], dhi))
+                darm = dhi if impact else _scale(-1.0, dlo)
+                dmoment = _axpy(-defect, darm, _axpy(-arm, ddefect, dshift))
+                ddv = _axpy(-defect, dbeta, _axpy(-beta, ddefect, ddv))
+                ddq = _axpy(-moment, dbeta, _axpy(-beta, dmoment, ddq))
             sums[0] += beta * defect / h
             if k > 0:
                 above = (lo * powers[0], mid * g_mid, hi * g_hi)  # s^(p + 1)
@@ -449,16 +468,30 @@ def _simpson_at(fourier, drive, x, tau, step, w, weight):
         fourier[i, 1] += weight * (x[0] * s0 + xm * sm + x[3] * s1)
 
 
+@njit(cache=CACHE, inline="always")
+def _substep(law, y, tangents, h, loads, side):
+    """One RK4 (sub)step of ``h`` from ``y = (q, q', dq, dq', derivatives)``: with the
+    tangents (``tangents = (dh, dloads)``) where ``derivatives``, else :func:`_rk4` alone
+    (the same values) and the tangents left as they are. Returns ``(q, q', x, dq, dq')``."""
+    q, v, dq, dv, derivatives = y
+    if derivatives:
+        dh, dloads = tangents
+        return _rk4_tangent(law, (q, v), (dq, dv, dh, dloads), h, loads, side)
+    q, v, x, _ = _rk4(law, q, v, h, loads, side)
+    return q, v, x, dq, dv
+
+
 @njit(cache=CACHE)
 def _split(law, drive, step, y, sums, fourier):
     """The step of ``step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach)``
-    from ``y = (q, q', dq, dq')`` taken as two RK4 steps, to the crossing at ``fraction`` of
-    it and from it, the singular terms' correction (:func:`_correct`) added at the
-    crossing; each part's quadrature added to ``sums`` and ``fourier`` (when it has rows).
-    Returns ``(q, q', x at the crossing, dq, dq')`` (the tangents as :func:`period_map`'s,
-    those of ``fraction`` and ``reach`` given)."""
+    from ``y = (q, q', dq, dq', derivatives)`` taken as two RK4 steps, to the crossing at
+    ``fraction`` of it and from it, the singular terms' correction (:func:`_correct`) added
+    at the crossing; each part's quadrature added to ``sums`` and ``fourier`` (when it has
+    rows). Returns ``(q, q', x at the crossing, dq, dq')``: the tangents as
+    :func:`period_map`'s (those of ``fraction`` and ``reach`` given) where
+    ``derivatives``, else the ones given (an advance needs none)."""
     h, w, sigma, j, fraction, inside, reach, dfraction, dreach = step
-    q, v, dq, dv = y
+    derivatives = y[4]
     side = 1 if inside else -1
     first = fraction * h
     second = h - first
@@ -469,29 +502,30 @@ def _split(law, drive, step, y, sums, fourier):
     middle = t0 + 0.5 * first
     loads = (_load(sigma, w, t0), _load(sigma, w, middle), _load(sigma, w, tau_e))
     # w tau = 2 pi (j + fraction c) / N at tau = t0 + c first: its tangent is w h c dfraction
-    rate = sigma * w * h
+    rate = sigma * w * h if derivatives else 0.0
     dloads = (
         ZERO,
-        _scale(0.5 * rate * math.cos(w * middle), dfraction),
-        _scale(rate * math.cos(w * tau_e), dfraction),
+        _scale(0.5 * rate * math.cos(w * middle), dfraction) if derivatives else ZERO,
+        _scale(rate * math.cos(w * tau_e), dfraction) if derivatives else ZERO,
     )
-    q, v, x, dq, dv = _rk4_tangent(law, (q, v), (dq, dv, dfirst, dloads), first, loads, side)
+    q, v, x, dq, dv = _substep(law, y, (dfirst, dloads), first, loads, side)
     _quadrature(sums, fourier, drive, x, (t0, first, w, h))
     # the contact side's acceleration at the crossing (there the force is c(0+) q')
     a_e, x_e, _ = _acceleration(law, -1.5, v, loads[2], 1)
-    da_e = _stage_tangent(law, -1.5, v, ZERO, dv, dloads[2], 1)
+    da_e = _stage_tangent(law, -1.5, v, ZERO, dv, dloads[2], 1) if derivatives else ZERO
     direction = -1.0 if inside else 1.0
     crossing = (tau_e, v, a_e, direction, w, dv, da_e)
     contact = (
-        (second, reach, dsecond, dreach) if direction > 0.0 else (first, reach, dfirst, dreach)
+        (second, reach, dsecond, dreach, derivatives)
+        if direction > 0.0
+        else (first, reach, dfirst, dreach, derivatives)
     )
     cq, cv, dcq, dcv = _correct(law, drive, h, crossing, contact, sums, fourier)
     middle = tau_e + 0.5 * second
     loads = (loads[2], _load(sigma, w, middle), _load(sigma, w, t0 + h))
-    dloads = (dloads[2], _scale(0.5 * rate * math.cos(w * middle), dfraction), ZERO)
-    y = (q + cq, v + cv)
-    tangents = (_axpy(1.0, dcq, dq), _axpy(1.0, dcv, dv), dsecond, dloads)
-    q, v, x, dq, dv = _rk4_tangent(law, y, tangents, second, loads, -side)
+    dmiddle = _scale(0.5 * rate * math.cos(w * middle), dfraction) if derivatives else ZERO
+    y = (q + cq, v + cv, _axpy(1.0, dcq, dq), _axpy(1.0, dcv, dv), derivatives)
+    q, v, x, dq, dv = _substep(law, y, (dsecond, (dloads[2], dmiddle, ZERO)), second, loads, -side)
     _quadrature(sums, fourier, drive, x, (tau_e, second, w, h))
     return q, v, x_e, dq, dv
 
@@ -572,7 +606,7 @@ def _run(law, drive, t, h, state, periods, out, measuring):
             loads = (
                 1.0 + sigma * drive.sin_table[2 * j],
                 1.0 + sigma * drive.sin_table[2 * j + 1],
-                1.0 + sigma * drive.sin_table[(2 * j + 2) % n2],
+                1.0 + sigma * drive.sin_table[2 * j + 2 if j < n - 1 else 0],
             )
             inside = to_compression(q) > 0.0
             q1, v1, x, root = _rk4(law, q, v, h, loads, (1 if inside else -1) * drive.events)
@@ -596,7 +630,8 @@ def _run(law, drive, t, h, state, periods, out, measuring):
                 fraction = _crossing(q, v, q1, v1, h)
                 reach = p * n * h + (j + fraction) * h - last_crossing if inside else np.inf
                 step = (h, w, sigma, j, fraction, inside, reach, ZERO, ZERO)
-                q, v, x_e, _, _ = _split(law, drive, step, (q, v, ZERO, ZERO), sums, fourier)
+                given = (q, v, ZERO, ZERO, False)  # no derivatives: an advance
+                q, v, x_e, _, _ = _split(law, drive, step, given, sums, fourier)
                 acc = _extremes(acc, (np.nan, np.nan), x_e)
                 for i in range(k):  # the table positions of the next step
                     index[i] = (drive.harmonics[i] * 2 * (j + 1)) % n2
@@ -685,7 +720,6 @@ def period_map(v, q, h, law, drive, derivative):
     split step's do, through its fraction). Returns ``(q', q, status)`` as :func:`advance`.
     """
     n = drive.sin_table.shape[0] // 2
-    n2 = 2 * n
     w = 2.0 * math.pi / (n * h)
     sigma = drive.sigma[0]
     limit = 8.0 / (h * h)
@@ -698,7 +732,7 @@ def period_map(v, q, h, law, drive, derivative):
         loads = (
             1.0 + sigma * drive.sin_table[2 * j],
             1.0 + sigma * drive.sin_table[2 * j + 1],
-            1.0 + sigma * drive.sin_table[(2 * j + 2) % n2],
+            1.0 + sigma * drive.sin_table[2 * j + 2 if j < n - 1 else 0],
         )
         d = to_compression(q)
         inside = d > 0.0
@@ -717,7 +751,7 @@ def period_map(v, q, h, law, drive, derivative):
             (now - last_crossing, _axpy(-1.0, dlast, dnow)) if inside else (np.inf, ZERO)
         )
         step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach)
-        q, v, _, dq, dv = _split(law, drive, step, (q, v, dq, dv), none, nothing)
+        q, v, _, dq, dv = _split(law, drive, step, (q, v, dq, dv, True), none, nothing)
         last_crossing, dlast = now, dnow
     for i in range(3):
         derivative[0, i] = dv[i]
