@@ -56,7 +56,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+from numba import literally, njit
 
 from . import CACHE
 from .integrate import (
@@ -578,6 +578,7 @@ def _run(law, drive, t, h, state, periods, out, measuring):
     ``(q', q)`` at phase 0, in place; when ``measuring``, read into column t of ``out``
     (:class:`.integrate.Readout`, flight times and sums divided by h). Returns the status
     (:data:`.scheme.STATUS`)."""
+    literally(measuring)  # compiled once reading and once not: no dead branch in the loop
     n = drive.sin_table.shape[0] // 2
     n2 = 2 * n
     w = 2.0 * math.pi / (n * h)
