@@ -1,6 +1,7 @@
 """The integration methods as data: each ``solver.method`` is one set of kernels with one
-contract, which the drivers look up in :data:`METHODS` (no method is named anywhere
-else).
+contract, which the drivers look up in :data:`METHODS` (no driver names a method; the
+compiled side's one other table, :data:`.tangent.MODULES`, maps each method's drive type
+to its kernel module for the compiled Newton).
 
 The state crossing the boundary is a pair ``(a, q)`` at excitation phase 0 whose first
 member is the method's own: ``q[n-1]`` for the central difference (it depends on the step

@@ -374,8 +374,9 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
     rows), all divided by h.
 
     ``crossing = (tau_e, v_e, a_e, direction, w, dv_e, da_e)``; ``span = (first, reach,
-    dfirst, dreach)``: the length of the split step's part on the contact side, ``reach``,
-    their tangents."""
+    dfirst, dreach, derivatives)``: the length of the split step's part on the contact
+    side, ``reach``, their tangents, and whether to carry the tangents at all (the
+    returned ones are zero where not)."""
     tau_e, v_e, a_e, direction, w, _, _ = crossing
     first, reach, dfirst, dreach, derivatives = span
     impact = direction > 0.0
@@ -788,6 +789,7 @@ def start(q, velocity, h, law):
     return velocity
 
 
+@njit(cache=CACHE)
 def restart(v, q, h_old, h_new, law):
     """q' is the same at any step."""
     return v

@@ -190,10 +190,9 @@ def _measure_one(a, q, h, law, drive, periods, readout):
 @overload(restart)
 def _restart(a, q, h_old, h_new, law, drive):
     module = _module(drive)
-    if module is integrate:
-        return lambda a, q, h_old, h_new, law, drive: integrate.restart(a, q, h_old, h_new, law)
-    if module is rk:  # q' does not depend on the step
-        return lambda a, q, h_old, h_new, law, drive: a
+    if module is not None:
+        kernel = module.restart
+        return lambda a, q, h_old, h_new, law, drive: kernel(a, q, h_old, h_new, law)
     return None
 
 
