@@ -212,7 +212,7 @@ def _crossing(q0, v0, q1, v1, h):
         trial = s - step
         if not (lo < trial < hi):  # outside the bracket (or no slope): bisect
             trial = 0.5 * (lo + hi)
-        elif abs(step) <= 1e-15:  # quadratic convergence: this step is the last one
+        elif abs(step) <= 1e-9:  # quadratic convergence: after this step, ~1e-18 is left
             return trial
         if trial == s or hi - lo <= 4e-16:
             return s
@@ -389,10 +389,6 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
     dlo, dhi = ZERO, dfirst
     limit = min(WINDOW, reach)
     k = fourier.shape[0]
-    phases = np.empty((k, 3))  # k w, cos and sin of k w tau_e
-    for i in range(k):
-        kw = drive.harmonics[i] * w
-        phases[i, 0], phases[i, 1], phases[i, 2] = kw, math.cos(kw * tau_e), math.sin(kw * tau_e)
     at_lo = (0.0, 0.0, 0.0)  # each term's s^p at lo (the last piece's hi)
     while True:
         mid = 0.5 * (lo + hi)
@@ -422,7 +418,8 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
                 above = (lo * powers[0], mid * g_mid, hi * g_hi)  # s^(p + 1)
                 slope = _defects(p + 1.0, (lo, hi), above, impact)[0]
                 for i in range(k):
-                    kw, c, s = phases[i, 0], phases[i, 1], phases[i, 2]
+                    kw = drive.harmonics[i] * w
+                    c, s = math.cos(kw * tau_e), math.sin(kw * tau_e)
                     # x cos(k w tau) with cos(k w (tau_e + direction s)) to first order in s
                     fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) / h
                     fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) / h
@@ -484,14 +481,15 @@ def _substep(law, y, tangents, h, loads, side):
 
 @njit(cache=CACHE)
 def _split(law, drive, step, y, sums, fourier):
-    """The step of ``step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach)``
-    from ``y = (q, q', dq, dq', derivatives)`` taken as two RK4 steps, to the crossing at
+    """The step of ``step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach,
+    grid)`` (``grid``: the loads at the step's ends, from the tables) from ``y = (q, q',
+    dq, dq', derivatives)`` taken as two RK4 steps, to the crossing at
     ``fraction`` of it and from it, the singular terms' correction (:func:`_correct`) added
     at the crossing; each part's quadrature added to ``sums`` and ``fourier`` (when it has
     rows). Returns ``(q, q', x at the crossing, dq, dq')``: the tangents as
     :func:`period_map`'s (those of ``fraction`` and ``reach`` given) where
     ``derivatives``, else the ones given (an advance needs none)."""
-    h, w, sigma, j, fraction, inside, reach, dfraction, dreach = step
+    h, w, sigma, j, fraction, inside, reach, dfraction, dreach, grid = step
     derivatives = y[4]
     side = 1 if inside else -1
     first = fraction * h
@@ -501,7 +499,7 @@ def _split(law, drive, step, y, sums, fourier):
     t0 = j * h
     tau_e = t0 + first
     middle = t0 + 0.5 * first
-    loads = (_load(sigma, w, t0), _load(sigma, w, middle), _load(sigma, w, tau_e))
+    loads = (grid[0], _load(sigma, w, middle), _load(sigma, w, tau_e))
     # w tau = 2 pi (j + fraction c) / N at tau = t0 + c first: its tangent is w h c dfraction
     rate = sigma * w * h if derivatives else 0.0
     dloads = (
@@ -523,7 +521,7 @@ def _split(law, drive, step, y, sums, fourier):
     )
     cq, cv, dcq, dcv = _correct(law, drive, h, crossing, contact, sums, fourier)
     middle = tau_e + 0.5 * second
-    loads = (loads[2], _load(sigma, w, middle), _load(sigma, w, t0 + h))
+    loads = (loads[2], _load(sigma, w, middle), grid[1])
     dmiddle = _scale(0.5 * rate * math.cos(w * middle), dfraction) if derivatives else ZERO
     y = (q + cq, v + cv, _axpy(1.0, dcq, dq), _axpy(1.0, dcv, dv), derivatives)
     q, v, x, dq, dv = _substep(law, y, (dsecond, (dloads[2], dmiddle, ZERO)), second, loads, -side)
@@ -631,7 +629,7 @@ def _run(law, drive, t, h, state, periods, out, measuring):
             else:
                 fraction = _crossing(q, v, q1, v1, h)
                 reach = p * n * h + (j + fraction) * h - last_crossing if inside else np.inf
-                step = (h, w, sigma, j, fraction, inside, reach, ZERO, ZERO)
+                step = (h, w, sigma, j, fraction, inside, reach, ZERO, ZERO, (loads[0], loads[2]))
                 given = (q, v, ZERO, ZERO, False)  # no derivatives: an advance
                 q, v, x_e, _, _ = _split(law, drive, step, given, sums, fourier)
                 acc = _extremes(acc, (np.nan, np.nan), x_e)
@@ -752,7 +750,7 @@ def period_map(v, q, h, law, drive, derivative):
         reach, dreach = (
             (now - last_crossing, _axpy(-1.0, dlast, dnow)) if inside else (np.inf, ZERO)
         )
-        step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach)
+        step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach, (loads[0], loads[2]))
         q, v, _, dq, dv = _split(law, drive, step, (q, v, dq, dv, True), none, nothing)
         last_crossing, dlast = now, dnow
     for i in range(3):
