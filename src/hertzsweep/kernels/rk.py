@@ -40,10 +40,11 @@ The state crossing the boundary is ``(q', q)``: it does not depend on the step, 
 frequency change needs no restart. :func:`period_map` is one period of :func:`advance`
 with its exact derivatives (forward mode through the stages, the crossing's fraction,
 the split and the correction), for shooting and continuation. A lift-off's correction
-reaches back to the impact before it, or :data:`WINDOW`: a run that starts in contact
-does not know when the contact began, and takes it to be at least WINDOW before (so a
-contact shorter than WINDOW across the start of a run, or of a period of the map, is
-corrected as if it were longer: an error of order ``h^(5/2)`` there, none elsewhere).
+reaches back to the impact before it, or :data:`WINDOW` when the run started in contact
+(it does not know when that contact began); an impact's reaches WINDOW ahead. A step of
+the window that is in fact in flight (a contact of duration c < WINDOW) is corrected
+for a term it does not have: ``h^5 s^(p-4)`` for a step at s from the crossing, ``h^4
+c^(p-3)`` summed from c on, below the method's own ``h^(7/2)`` unless c is a few steps.
 
 Stability of the explicit method (undamped, linearised): ``h omega < 2 sqrt(2)`` (RK4's
 interval on the imaginary axis), with ``omega^2 = sqrt(d)`` at the largest compression:
