@@ -125,6 +125,11 @@ class Setting:
             sets.append(f"sweep.tolerance={format_tolerance(self.tolerance)}")
         return sets
 
+    @property
+    def set_options(self) -> str:
+        """:meth:`overrides` as command-line options: ``--set KEY=VALUE ...``."""
+        return " ".join(f"--set {item}" for item in self.overrides())
+
     def apply(self, scene: Scene) -> Scene:
         """A copy of the scene with these settings."""
         sweep = replace(
@@ -581,7 +586,6 @@ class AccuracyReport:
         fastest (wall time) whose H1 error meets the target.
     target_margin : the reference's estimated H1 error added to each rung's error when
         checking it against the target.
-    richardson_order : the order p of that estimate (the reference's method's).
     notes : what was skipped or failed, and why.
     """
 
@@ -597,12 +601,16 @@ class AccuracyReport:
     target: float | None = None
     recommended: int | None = None
     target_margin: float = 0.0
-    richardson_order: float = RICHARDSON_ORDER[DEFAULT_METHOD]
     notes: list[str] = field(default_factory=list)
 
     @property
     def reference(self) -> Rung:
         return self.rungs[-1]
+
+    @property
+    def richardson_order(self) -> float:
+        """The order p of the reference's Richardson estimate: its method's."""
+        return RICHARDSON_ORDER[self.reference.setting.method]
 
     def index(self, setting: Setting) -> int | None:
         """Index of a setting's rung, None if it did not run."""
@@ -641,11 +649,10 @@ def assess(
         settle_check_label=settle_label,
         scene_setting=ladder.scene_setting,
         target=target,
-        richardson_order=RICHARDSON_ORDER[method],
         notes=[*ladder.notes, *notes],
     )
     margin = reference_error.h1 if reference_error is not None else 0.0
-    order = RICHARDSON_ORDER[method]
+    order = report.richardson_order
     low = math.isfinite(reference_order) and reference_order < order - 0.5
     if reference_error is not None and low:
         factor = 2.0**order - 1.0  # the order-1 estimate over the order-p one

@@ -131,11 +131,16 @@ PERIOD_MAPS = {integrate.Drive: period_map, rk.Drive: rk.period_map}
 """The one-period map with its Jacobian of each method's drive type."""
 
 
-def _module(drive):
-    """The kernel module of a drive's numba type (None if it is no method's drive)."""
-    if isinstance(drive, types.BaseNamedTuple):
-        return MODULES.get(drive.instance_class)
-    return None
+def _kernel(drive, name):
+    """The kernel ``name`` of the method whose drive has this numba type (``"period_map"``:
+    its one-period map with the Jacobian); None if the type is no method's drive."""
+    if not isinstance(drive, types.BaseNamedTuple):
+        return None
+    cls = drive.instance_class
+    if name == "period_map":
+        return PERIOD_MAPS.get(cls)
+    module = MODULES.get(cls)
+    return None if module is None else getattr(module, name)
 
 
 def one_period(a, q, h, law, drive, derivative):
@@ -158,42 +163,40 @@ def restart(a, q, h_old, h_new, law, drive):
     raise NotImplementedError("compiled only")
 
 
-@overload(one_period)
-def _one_period(a, q, h, law, drive, derivative):
-    module = _module(drive)
-    if module is not None:
-        kernel = PERIOD_MAPS[drive.instance_class]
-        return lambda a, q, h, law, drive, derivative: kernel(a, q, h, law, drive, derivative)
-    return None
+def _dispatch(stub, name):
+    """Overload ``stub`` (six arguments, the drive fifth) by the drive's method's kernel
+    ``name``, which takes the same arguments."""
+
+    @overload(stub)
+    def implementation(a, q, h, law, drive, last):
+        kernel = _kernel(drive, name)
+        if kernel is None:
+            return None
+        return lambda a, q, h, law, drive, last: kernel(a, q, h, law, drive, last)
+
+    return implementation
 
 
-@overload(advance)
-def _advance(a, q, h, law, drive, periods):
-    module = _module(drive)
-    if module is not None:
-        kernel = module.advance
-        return lambda a, q, h, law, drive, periods: kernel(a, q, h, law, drive, periods)
-    return None
+_dispatch(one_period, "period_map")
+_dispatch(advance, "advance")
 
 
 @overload(measure_one)
 def _measure_one(a, q, h, law, drive, periods, readout):
-    module = _module(drive)
-    if module is not None:
-        kernel = module.measure_one
-        return lambda a, q, h, law, drive, periods, readout: kernel(
-            a, q, h, law, drive, periods, readout
-        )
-    return None
+    kernel = _kernel(drive, "measure_one")
+    if kernel is None:
+        return None
+    return lambda a, q, h, law, drive, periods, readout: kernel(
+        a, q, h, law, drive, periods, readout
+    )
 
 
 @overload(restart)
 def _restart(a, q, h_old, h_new, law, drive):
-    module = _module(drive)
-    if module is not None:
-        kernel = module.restart
-        return lambda a, q, h_old, h_new, law, drive: kernel(a, q, h_old, h_new, law)
-    return None
+    kernel = _kernel(drive, "restart")
+    if kernel is None:
+        return None
+    return lambda a, q, h_old, h_new, law, drive: kernel(a, q, h_old, h_new, law)
 
 
 @njit(cache=CACHE, error_model="numpy", nogil=True)

@@ -615,7 +615,7 @@ def accuracy_dataset(report: AccuracyReport, scene: Scene, history: str | None =
         "recommended": "" if recommended is None else rungs[recommended].setting.label,
         "recommended_command": ""
         if recommended is None
-        else " ".join(f"--set {o}" for o in rungs[recommended].setting.overrides()),
+        else rungs[recommended].setting.set_options,
         "target": float("nan") if report.target is None else float(report.target),
         "target_margin": float(report.target_margin),
         "error_metric": "error_h1: max abs H1 error over the sweep / the reference's max H1",

@@ -245,8 +245,7 @@ def _recommendation(report: AccuracyReport) -> str:
             f" ({ratio:.2f}x the time of the scene's {scene_rung.setting.label}, whose error "
             f"is {scene_error:.2e})"
         )
-    sets = " ".join(f"--set {o}" for o in rung.setting.overrides())
-    return f"{text}\nreproduce: hertzsweep sweep SCENE {sets}"
+    return f"{text}\nreproduce: hertzsweep sweep SCENE {rung.setting.set_options}"
 
 
 __all__ = [
