@@ -46,3 +46,30 @@ def run_cli(argv, capsys):
         code = exc.code if isinstance(exc.code, int) else 1
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def run_on_a_small_disk(tmp_path, argv, size):
+    """Run ``argv`` in ``tmp_path`` with a tmpfs of ``size`` mounted on ``tmp_path/full``
+    in a private mount namespace (root, unshare); skips where that is not allowed.
+    Returns ``(stdout, stderr)``: stdout ends with ``status=N`` and what ``full`` holds."""
+    import os
+    import shutil
+    import subprocess
+
+    if os.geteuid() != 0 or shutil.which("unshare") is None:
+        pytest.skip("needs root and unshare to mount a small tmpfs")
+    (tmp_path / "full").mkdir()
+    script = (
+        f"mount -t tmpfs -o size={size} tmpfs full || exit 99; "
+        f'{subprocess.list2cmdline(argv)}; echo "status=$?"; ls -A full'
+    )
+    done = subprocess.run(
+        ["unshare", "--mount", "sh", "-c", script],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    if done.returncode == 99 or "status=" not in done.stdout:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    return done.stdout, done.stderr

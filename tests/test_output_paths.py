@@ -23,7 +23,7 @@ import pytest
 from hertzsweep.output import paths
 from hertzsweep.output.dataset import open_dataset
 
-from .conftest import CONFIGS, ROOT, run_cli
+from .conftest import CONFIGS, ROOT, run_cli, run_on_a_small_disk
 from .test_study import write_study
 
 # The smoke scene cut to 2 directions x 1 sigma x 5 frequencies (0.95 ... 0.96, step
@@ -310,27 +310,11 @@ def test_permission_denied_creating_the_temporary_is_one_line(tmp_path, capsys, 
 def test_a_really_full_disk_is_one_line(tmp_path):
     # a 32 kB tmpfs in a private mount namespace (root, unshare): the dataset (about
     # 57 kB) does not fit; skipped where mounting is not allowed
-    if os.geteuid() != 0 or shutil.which("unshare") is None:
-        pytest.skip("needs root and unshare to mount a small tmpfs")
-    full = tmp_path / "full"
-    full.mkdir()
     hertzsweep = [sys.executable, "-m", "hertzsweep"]
     argv = [*hertzsweep, "sweep", str(CONFIGS / "smoke.toml"), "-o", "full/x.nc", "-q", *SMALL]
-    script = (
-        "mount -t tmpfs -o size=32k tmpfs full || exit 99; "
-        f'{subprocess.list2cmdline(argv)}; echo "status=$?"; ls -A full'
-    )
-    done = subprocess.run(
-        ["unshare", "--mount", "sh", "-c", script],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    if done.returncode == 99 or "status=" not in done.stdout:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
-    assert done.stdout.split() == ["status=2"], done.stdout  # nothing left in full/
-    assert done.stderr == "hertzsweep: error: full/x.nc: No space left on device\n"
+    stdout, stderr = run_on_a_small_disk(tmp_path, argv, "32k")
+    assert stdout.split() == ["status=2"], stdout  # nothing left in full/
+    assert stderr == "hertzsweep: error: full/x.nc: No space left on device\n"
 
 
 # --------------------------------------------------------------------------- 3. temporaries

@@ -11,7 +11,7 @@ second run writing the same output, stale temporaries of a killed run removed.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Any
 
 import click
@@ -124,8 +124,28 @@ def write_result(kind: Kind, result: Any, scene: Scene, output: str) -> xr.Datas
 
     ds = kind.build(result, scene)
     write_atomic(ds, output)
+    _report(kind, result, ds, output)
+    return ds
+
+
+def write_streamed(kind: Kind, scene: Scene, output: str, run: Callable[[Any], Any]) -> None:
+    """Run a driver whose record streams into the output as it is integrated
+    (``run(sink)`` with a :class:`hertzsweep.output.dataset.RecordStream` on the output's
+    temporary), finish the file with the rest of the dataset, print the summary."""
+    from ..core.rig import derive
+    from ..output.dataset import RecordStream
+
+    omega = derive(scene.rig).natural_circular_frequency
+    with paths.atomic_path(output) as tmp, RecordStream(tmp, omega) as stream:
+        result = run(stream)
+        ds = kind.build(result, scene)
+        stream.finish(ds)
+    _report(kind, result, ds, output)
+
+
+def _report(kind: Kind, result: Any, ds: Any, output: str) -> None:
+    """The kind's summary of a written output, and the file written."""
     text = kind.summary(result, ds)
     if text:
         click.echo(text)
     click.echo(f"wrote {output}")
-    return ds

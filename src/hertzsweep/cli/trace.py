@@ -61,18 +61,25 @@ def trace_command(
     """Settled time history of one frequency for every sigma: q, q', N/F_s and contact,
     the spectrum of N/F_s, and every flight; prints one line per sigma."""
     scene = options.read_scene(scene_file, overrides)
-    check_record(scene, periods, samples_per_period)
+    streamed = check_record(scene, periods, samples_per_period)
     options.claim_output(output, scene.inputs)
-    with progress_bar(trace_count(scene, frequency_ratio, branch), "trace", not quiet) as bar:
-        result = TRACE.run(
-            scene,
-            frequency_ratio,
-            periods=periods,
-            branch=branch,
-            samples_per_period=samples_per_period,
-            progress=bar,
-        )
-    options.write_result(TRACE, result, scene, output)
+
+    def run(sink=None):
+        with progress_bar(trace_count(scene, frequency_ratio, branch), "trace", not quiet) as bar:
+            return TRACE.run(
+                scene,
+                frequency_ratio,
+                periods=periods,
+                branch=branch,
+                samples_per_period=samples_per_period,
+                progress=bar,
+                sink=sink,
+            )
+
+    if streamed:  # a long record goes to the file as it is integrated
+        options.write_streamed(TRACE, scene, output, run)
+    else:
+        options.write_result(TRACE, run(), scene, output)
 
 
 __all__ = ["trace_command"]

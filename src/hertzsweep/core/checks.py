@@ -416,14 +416,33 @@ def load_checked_scene(path: str | Path, overrides: Iterable[str] = ()) -> tuple
 
 
 # --------------------------------------------------------------------------- trace
+STREAM_RECORD_BYTES = 2**24  # a trace record beyond 16 MiB (about 8000 periods x 256
+# samples of one sigma) is streamed to its file as it is integrated instead of held: the
+# in-memory file image and the writer's copies would cost several times the record
+
+
+def streams_record(scene: Scene, samples: int) -> bool:
+    """Whether ``hertzsweep trace`` streams a record of ``samples`` samples per sigma to
+    its file (:class:`hertzsweep.output.dataset.RecordStream`) rather than holding it."""
+    return len(scene.excitation.sigma) * samples * 4 * FLOAT > STREAM_RECORD_BYTES  # 4 columns
+
+
 def record_bytes(scene: Scene, samples: int) -> int:
-    """An estimate of the memory of a trace of ``samples`` samples per sigma: the record
-    (q, q', N/F_s, contact: 4 floats a sample), the dataset's contact flags (1 byte) and
-    the writer's contiguous copy of one column (1 float) per sigma and sample; the time
-    coordinates (2 floats), the spectrum's transform buffer (1 float) and, per sigma, the
-    spectrum (half a float) per sample."""
+    """An estimate of the memory of a trace of ``samples`` samples per sigma.
+
+    Held: the record (q, q', N/F_s, contact: 4 floats a sample), the dataset's contact
+    flags (1 byte) and the writer's contiguous copy of one column (1 float) per sigma
+    and sample; the time coordinates (2 floats), the spectrum's transform buffer (1
+    float) and, per sigma, the spectrum (half a float) per sample. Streamed
+    (:func:`streams_record`): per sample only one sigma's N/F_s and the transform buffer
+    (2 floats) and, per sigma, the spectrum; per sigma and sample, the in-file record
+    costs no memory.
+    """
     sigma = len(scene.excitation.sigma)
-    per_sample = sigma * (4 * FLOAT + 1 + FLOAT + FLOAT // 2) + 3 * FLOAT
+    if streams_record(scene, samples):
+        per_sample = 2 * FLOAT + sigma * (FLOAT // 2)
+    else:
+        per_sample = sigma * (4 * FLOAT + 1 + FLOAT + FLOAT // 2) + 3 * FLOAT
     return samples * per_sample + sigma * FLOAT
 
 
@@ -432,7 +451,7 @@ def check_record(
     periods: int,
     samples_per_period: int | None = None,
     source: str = "trace",
-) -> int:
+) -> bool:
     """The memory of ``hertzsweep trace``'s record of ``periods`` periods
     (:func:`record_bytes`), refused beyond :data:`MEMORY_BUDGET`, and its integration
     steps, refused beyond :func:`max_steps`; before anything is allocated.
@@ -442,10 +461,10 @@ def check_record(
     steps_per_period`` steps. A ``periods`` or ``samples_per_period`` the trace refuses
     anyway (not a whole number >= 1, not a divisor) is left to it.
 
-    Returns the memory estimate [bytes].
+    Returns whether the record is streamed to the file (:func:`streams_record`).
     """
     if isinstance(periods, bool) or not isinstance(periods, int | np.integer) or periods < 1:
-        return 0
+        return False
     steps_per_period = scene.solver.steps_per_period
     samples = steps_per_period
     if (
@@ -480,7 +499,7 @@ def check_record(
             f"of them recording), beyond the budget solver.max_steps = {budget:.3g} (about "
             f"{_duration(budget)} at 9 ns a step)",
         )
-    return memory
+    return streams_record(scene, int(periods) * samples)
 
 
 __all__ = [
@@ -488,9 +507,11 @@ __all__ = [
     "MAX_POINTS",
     "MAX_STEPS_PER_PERIOD",
     "MEMORY_BUDGET",
+    "STREAM_RECORD_BYTES",
     "Figures",
     "check_grid",
     "check_record",
+    "streams_record",
     "check_rig",
     "check_harmonics",
     "check_steps_per_period",

@@ -114,6 +114,11 @@ class AmplitudeSpectrum:
             raise ValueError("backend 'pyfftw' requested but pyfftw is not installed")
         self._plan = fftw_plan(self.samples) if self.backend == "pyfftw" else None
 
+    def buffer(self) -> np.ndarray:
+        """float[M]: where to put a signal that is transformed without a copy (with pyfftw
+        the plan's own input, overwritten by the next transform of this length)."""
+        return np.empty(self.samples) if self._plan is None else self._plan.samples
+
     def transform(self, signal: np.ndarray, offset: float = 0.0) -> np.ndarray:
         """``X_b`` of ``signal - offset`` (complex, M/2 + 1 bins). With pyfftw the result
         is the plan's buffer, overwritten by the next transform of that length."""

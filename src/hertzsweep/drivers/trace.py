@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -26,8 +27,8 @@ from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import ConfigError, HertzsweepError
 from ..kernels import scheme
-from ..kernels.flights import NORMAL_FORCE, RECORD_COLUMNS, flight_intervals
-from .oscillator import Oscillator, State
+from ..kernels.flights import IN_CONTACT, NORMAL_FORCE, RECORD_COLUMNS, flight_intervals
+from .oscillator import Oscillator, Reading, State
 from .readings import SCALAR_FIELDS, Readings
 from .spectrum import AmplitudeSpectrum, harmonic_orders
 from .steady import Dwell, settle_dwell, strategy
@@ -49,8 +50,9 @@ class TraceResult(Readings):
 
     Attributes
     ----------
-    record : float[S, M, 4]
-        ``q, q', N/F_s, in contact`` (1.0/0.0) every ``sample_step`` in tau.
+    record : float[S, M, 4] or None
+        ``q, q', N/F_s, in contact`` (1.0/0.0) every ``sample_step`` in tau; None when
+        it was streamed to a :class:`RecordSink`.
     spectrum : float[S, M/2 + 1]
         Single-sided amplitude spectrum of N/F_s on :attr:`harmonic_order`.
     amplitude, phase : float[S, K]
@@ -79,7 +81,7 @@ class TraceResult(Readings):
     sample_step: float
     sigma: np.ndarray
     harmonics: np.ndarray
-    record: np.ndarray
+    record: np.ndarray | None
     spectrum: np.ndarray
     harmonic_order: np.ndarray
     flight_start: np.ndarray
@@ -94,7 +96,7 @@ class TraceResult(Readings):
     @property
     def tau(self) -> np.ndarray:
         """tau of each sample, from 0."""
-        return np.arange(self.record.shape[1]) * self.sample_step
+        return np.arange(self.periods * self.samples_per_period) * self.sample_step
 
     @property
     def flight_count(self) -> np.ndarray:
@@ -194,6 +196,132 @@ def longest_flight(start: np.ndarray, end: np.ndarray, complete: np.ndarray, spa
     return float(np.max(duration))
 
 
+# --------------------------------------------------------------------------- recording
+CHUNK_SAMPLES = 1 << 16  # samples per sigma recorded per call of the kernel (2 MB of
+# record): whole periods, at least one. The readings of the chunks combine
+# (:meth:`~.oscillator.Block.then`), the flights join across them (:class:`FlightLog`).
+
+
+def chunk_periods(samples_per_period: int) -> int:
+    """Whole periods per recorded chunk (:data:`CHUNK_SAMPLES`, at least one)."""
+    return max(1, CHUNK_SAMPLES // int(samples_per_period))
+
+
+class RecordSink(Protocol):
+    """Where a streamed record goes (the output layer's netCDF file): :meth:`open` once
+    with the record's shape and spacing, then every chunk in order."""
+
+    def open(self, sigma: int, samples: int, chunk: int, sample_step: float) -> None:
+        """``sigma`` x ``samples`` samples to come, in chunks of ``chunk`` samples (the
+        last one may be shorter), ``sample_step`` apart in tau."""
+
+    def write(self, s: int, first: int, rows: np.ndarray) -> None:
+        """Samples ``first .. first + len(rows)`` of sigma ``s`` (float[n, 4])."""
+
+
+class FlightLog:
+    """The flights of a record read chunk by chunk, each chunk with the sample before it
+    (:func:`~hertzsweep.kernels.flights.flight_intervals` at its index in the record): the
+    bounds and flags of the whole record at once, bit for bit. A flight that runs into
+    the next chunk is held until its end is read."""
+
+    def __init__(self, dt: float) -> None:
+        self.dt = dt
+        self.pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.open: tuple[float, int] | None = None  # (start, complete) of a flight running on
+
+    def add(self, window: np.ndarray, first: int, last: bool) -> None:
+        """``window`` = samples ``first ..`` of the record: a chunk, after the first one
+        preceded by the previous chunk's last sample; ``last``: the record ends with it."""
+        start, end, _ = flight_intervals(window, self.dt, first)
+        if start.size == 0:
+            return
+        start_cut = np.zeros(start.size, dtype=bool)
+        end_cut = np.zeros(start.size, dtype=bool)
+        start_cut[0] = window[0, IN_CONTACT] == 0.0
+        end_cut[-1] = window[-1, IN_CONTACT] == 0.0
+        if self.open is not None:  # flight 0 is the one the previous chunk left running
+            start[0], start_cut[0] = self.open
+            self.open = None
+        kept = start.size
+        if end_cut[-1] and not last:  # runs into the next chunk
+            self.open = (float(start[-1]), bool(start_cut[-1]))
+            kept -= 1
+        complete = np.where(start_cut | end_cut, 0, 1).astype(np.int8)
+        self.pieces.append((start[:kept], end[:kept], complete[:kept]))
+
+    def intervals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``start, end, complete`` of every flight read (as :func:`flight_intervals`)."""
+        if not self.pieces:
+            return np.empty(0), np.empty(0), np.empty(0, dtype=np.int8)
+        start, end, complete = zip(*self.pieces, strict=True)
+        return np.concatenate(start), np.concatenate(end), np.concatenate(complete)
+
+
+class _Recorder:
+    """Records one trace chunk by chunk (:func:`chunk_periods`): into the result's record
+    (in memory), or into a chunk buffer handed to a :class:`RecordSink`, with the normal
+    force kept for the spectrum. Either way the kernels run the same chunks, so the
+    numbers are the same, and each chunk is read by the flights with the sample before
+    it."""
+
+    def __init__(
+        self,
+        sink: RecordSink | None,
+        sigma: int,
+        analyser: AmplitudeSpectrum,
+        per_period: int,
+        stride: int,
+    ) -> None:
+        self.sink = sink
+        self.per_period = per_period
+        self.periods = analyser.samples // per_period
+        self.stride = stride
+        self.chunk = chunk_periods(per_period)
+        self.record = self.force = None
+        if sink is None:
+            self.record = np.empty((sigma, analyser.samples, RECORD_COLUMNS))
+        else:  # N/F_s straight into the transform's input: no copy of the record's length
+            self.buffer = np.empty((min(self.chunk, self.periods) * per_period + 1, RECORD_COLUMNS))
+            self.force = analyser.buffer()
+
+    def run(
+        self, oscillator: Oscillator, state: State, frequency_ratio: float, s: int, dt: float
+    ) -> tuple[State, Reading, FlightLog]:
+        """Measure and record sigma ``s``'s periods; the chunks' readings combined as one
+        (:meth:`~.oscillator.Block.then`) and their flights (``dt``: sample spacing)."""
+        flights = FlightLog(dt)
+        block = None
+        for p in range(0, self.periods, self.chunk):
+            count = min(self.chunk, self.periods - p)
+            first = p * self.per_period
+            rows, window = self._rows(s, first, count * self.per_period)
+            state, part = oscillator.measure_block(state, frequency_ratio, count, rows, self.stride)
+            block = part if block is None else block.then(part)
+            lead = window.shape[0] - rows.shape[0]  # the sample before the chunk, or none
+            flights.add(window, first - lead, last=p + count == self.periods)
+            if self.sink is not None:
+                self.sink.write(s, first, rows)
+                self.force[first : first + rows.shape[0]] = rows[:, NORMAL_FORCE]
+                self.buffer[0] = rows[-1]
+        return state, block.at(0), flights
+
+    def _rows(self, s: int, first: int, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """Where the kernel writes samples ``first .. first + count`` of sigma ``s``, and
+        those rows preceded by the sample before them (after the first chunk)."""
+        lead = 1 if first > 0 else 0
+        if self.record is not None:
+            return (
+                self.record[s, first : first + count],
+                self.record[s, first - lead : first + count],
+            )
+        return self.buffer[1 : count + 1], self.buffer[1 - lead : count + 1]
+
+    def normal_force(self, s: int) -> np.ndarray:
+        """N/F_s of sigma ``s`` over the whole record."""
+        return self.force if self.record is None else self.record[s, :, NORMAL_FORCE]
+
+
 # --------------------------------------------------------------------------- driver
 def run_trace(
     scene: Scene,
@@ -202,6 +330,7 @@ def run_trace(
     branch: str = "upper",
     samples_per_period: int | None = None,
     progress: Progress | None = None,
+    sink: RecordSink | None = None,
 ) -> TraceResult:
     """Settled time histories at one frequency ratio for every sigma of the scene.
 
@@ -221,12 +350,17 @@ def run_trace(
         step, so that the spectrum's lines equal the lock-in's).
     progress : callable, optional
         Called with 1 after each dwell.
+    sink : RecordSink, optional
+        Where the record goes as it is integrated, chunk by chunk (the result then holds
+        none); default: in the result.
 
     Returns
     -------
     TraceResult
-        Only the records (``S x P x samples_per_period x 4``) and the spectra
-        (``S x (M/2 + 1)``) grow with the record; the integration keeps no history.
+        Only the records (``S x P x samples_per_period x 4``, unless streamed to
+        ``sink``) and the spectra (``S x (M/2 + 1)``) grow with the record; the
+        integration keeps no history. Recorded in chunks of :data:`CHUNK_SAMPLES`, in
+        memory or streamed alike: the same numbers either way.
 
     Raises
     ------
@@ -248,8 +382,11 @@ def run_trace(
     path = approach_path(scene.sweep.frequency_ratios, w, branch)
     dwell = strategy(scene).dwell
 
-    record = np.empty((sigma.size, samples, RECORD_COLUMNS))
     analyser = AmplitudeSpectrum(samples)
+    recorder = _Recorder(sink, sigma.size, analyser, samples_per_period, stride)
+    if sink is not None:
+        chunk = min(recorder.chunk, periods) * samples_per_period
+        sink.open(sigma.size, samples, chunk, sample_step)
     spectrum = np.empty((sigma.size, analyser.bins))
     amplitude = np.empty((sigma.size, harmonics.size))
     phase = np.empty_like(amplitude)
@@ -262,16 +399,16 @@ def run_trace(
         oscillator = Oscillator(scene, level)
         try:
             state, settled[s] = reach(oscillator, w, path, dwell, progress)
-            state, reading = oscillator.measure(state, w, periods, record=record[s], stride=stride)
+            state, reading, log = recorder.run(oscillator, state, w, s, sample_step)
         except HertzsweepError as exc:
             raise exc.with_context(f"{scene.source}: trace at w = {w:g}") from None
         steps += oscillator.steps
-        analyser.amplitude(record[s, :, NORMAL_FORCE], offset=1.0, out=spectrum[s])
+        analyser.amplitude(recorder.normal_force(s), offset=1.0, out=spectrum[s])
         amplitude[s], phase[s] = reading.amplitude, reading.phase
         for name in SCALAR_FIELDS:  # flight_tau: from the interpolated flights, below
             scalars[name][s] = getattr(reading, name)
         periodic[s] = reading.periodic
-        start, end, complete = flight_intervals(record[s], sample_step)
+        start, end, complete = log.intervals()
         scalars["flight_tau"][s] = longest_flight(start, end, complete, samples * sample_step)
         flights.append((start, end, complete))
 
@@ -293,7 +430,7 @@ def run_trace(
         sample_step=sample_step,
         sigma=sigma,
         harmonics=harmonics,
-        record=record,
+        record=recorder.record,
         spectrum=spectrum,
         harmonic_order=harmonic_orders(samples, periods),
         amplitude=amplitude,
@@ -318,6 +455,9 @@ def trace_count(scene: Scene, frequency_ratio: float, branch: str) -> int:
 
 __all__ = [
     "BRANCHES",
+    "CHUNK_SAMPLES",
+    "FlightLog",
+    "RecordSink",
     "TraceResult",
     "approach_path",
     "flight_intervals",

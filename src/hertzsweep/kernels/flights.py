@@ -46,7 +46,7 @@ def crossing(record, i, dt):
 
 
 @njit(cache=CACHE)
-def flight_intervals(record, dt):
+def flight_intervals(record, dt, first=0):
     """Every flight (run of samples out of contact) of a record, in tau from its start.
 
     Parameters
@@ -55,13 +55,17 @@ def flight_intervals(record, dt):
         ``q, q', N/F_s, in contact`` every ``dt``.
     dt : float
         Sample spacing in tau.
+    first : int
+        Index of ``record[0]`` in a longer record the times are counted in (a chunk of
+        one: ``(first + i) dt``, the whole record's arithmetic).
 
     Returns
     -------
     start, end : float[F]
         The flight's bounds: where the Hermite interpolant of ``(q, q')`` between the
         samples on either side crosses q = -3/2; a flight running into the record's start
-        (end) is cut at 0 (``M dt``, the end of the last recorded period).
+        (end) is cut at ``first dt`` (``(first + M) dt``, the end of the last recorded
+        period).
     complete : int8[F]
         1 where both bounds lie inside the record, 0 where the record cuts the flight.
     """
@@ -79,16 +83,16 @@ def flight_intervals(record, dt):
         if out and (i == 0 or record[i - 1, IN_CONTACT] != 0.0):
             f += 1
             if i == 0:
-                start[f] = 0.0
+                start[f] = first * dt
                 complete[f] = 0
             else:
-                start[f] = (i - 1 + crossing(record, i - 1, dt)) * dt
+                start[f] = (first + i - 1 + crossing(record, i - 1, dt)) * dt
         if out and (i == m - 1 or record[i + 1, IN_CONTACT] != 0.0):
             if i == m - 1:
-                end[f] = m * dt
+                end[f] = (first + m) * dt
                 complete[f] = 0
             else:
-                end[f] = (i + crossing(record, i, dt)) * dt
+                end[f] = (first + i + crossing(record, i, dt)) * dt
     return start, end, complete
 
 

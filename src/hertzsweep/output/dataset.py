@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import functools
 import json
 import os
@@ -424,24 +425,32 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
 
     Dimensions ``sigma``, ``sample`` (coordinates ``tau`` and ``time`` [s]),
     ``harmonic``, ``harmonic_order`` (with ``spectrum_frequency`` [Hz]) and ``flight``;
-    the record's columns are views, not copies. Flight variables are NaN padded
-    (``flight_complete`` with -1). Times in seconds are ``tau / Omega`` (eq. 6).
+    the record's float columns are views, not copies. A record streamed to its file
+    (:class:`RecordStream`) is there already: its variables and ``tau``, ``time`` are
+    placeholders of the right shape (no memory) whose values the writer leaves alone.
+    Flight variables are NaN padded (``flight_complete`` with -1). Times in seconds are
+    ``tau / Omega`` (eq. 6).
     """
     constants = derive(scene.rig)
     omega = constants.natural_circular_frequency
     f0 = constants.natural_frequency
     w = float(result.frequency_ratio)
-    tau = result.tau
-    record = result.record
     trace = ("sigma", "sample")
     flight = ("sigma", "flight")
+    if result.record is None:  # streamed (RecordStream): in the file already
+        shape = (result.sigma.size, result.periods * result.samples_per_period)
+        tau = np.broadcast_to(np.nan, shape[1:])
+        columns = [np.broadcast_to(dtype(0), shape) for _, dtype in RECORD_VARIABLES]
+    else:
+        tau = result.tau
+        columns = [
+            result.record[:, :, c].astype(dtype, copy=False)
+            for c, (_, dtype) in enumerate(RECORD_VARIABLES)
+        ]
     data: Variables = {
-        "displacement": (trace, record[:, :, 0]),
-        "velocity": (trace, record[:, :, 1]),
-        "normal_force": (trace, record[:, :, 2]),
-        "in_contact": (trace, record[:, :, 3].astype(np.int8)),
-        "spectrum": (("sigma", "harmonic_order"), result.spectrum),
+        name: (trace, column) for (name, _), column in zip(RECORD_VARIABLES, columns, strict=True)
     }
+    data["spectrum"] = (("sigma", "harmonic_order"), result.spectrum)
     data.update(_readings(partial(getattr, result), ("sigma",), omega))
     data.update(
         flight_count=("sigma", result.flight_count.astype(INDEX)),
@@ -459,7 +468,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "tau": ("sample", tau, attrs("tau")),
-        "time": ("sample", tau / omega, attrs("time")),
+        "time": ("sample", tau if result.record is None else tau / omega, attrs("time")),
         "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
         "harmonic_order": ("harmonic_order", order, attrs("harmonic_order")),
         "spectrum_frequency": ("harmonic_order", order * w * f0, attrs("spectrum_frequency")),
@@ -678,6 +687,10 @@ def write_atomic(ds: Frame | xr.Dataset, path: str | os.PathLike) -> Path:
 
 COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}  # float arrays: about 2x smaller
 MEMORY_START = 1 << 16  # [bytes] first size of the in-memory file (it grows as needed)
+SLAB_BYTES = 1 << 21  # [bytes] a compressed variable larger than this (a long trace's
+# spectrum) is stored in HDF5 chunks of this size along its last axis (one index of the
+# others), written chunk by chunk with a cache of one: what netCDF4 and HDF5 copy and
+# cache stays this small instead of the variable's size (smaller ones: netCDF's defaults)
 
 
 def write_netcdf(ds: Frame | xr.Dataset, path: str | os.PathLike) -> None:
@@ -723,11 +736,14 @@ def write_netcdf(ds: Frame | xr.Dataset, path: str | os.PathLike) -> None:
 
 
 def _fill(nc: Any, ds: Frame | xr.Dataset) -> None:
-    """The attributes, dimensions and variables of a dataset into an open netCDF4 file."""
+    """The attributes, dimensions and variables of a dataset into an open netCDF4 file;
+    a variable the file has already (streamed, :class:`RecordStream`) gets its
+    attributes, its values stay."""
     for key, value in ds.attrs.items():
         nc.setncattr(key, _attribute(key, value))
     for dim, size in ds.sizes.items():
-        nc.createDimension(str(dim), size)
+        if str(dim) not in nc.dimensions:
+            nc.createDimension(str(dim), size)
     coordinates = _coordinates_attributes(ds)
     names = [*ds.coords, *ds.data_vars]
     for name in names:
@@ -773,7 +789,6 @@ def _write_variable(
     values = np.asarray(var.values)
     kind = values.dtype.kind
     dims = tuple(str(d) for d in var.dims)
-    options: dict[str, Any] = {}
     attributes = dict(var.attrs)
     if kind in "OUS":
         values = _utf8(name, values)
@@ -791,13 +806,18 @@ def _write_variable(
         dtype = values.dtype
     else:
         raise TypeError(f"{name}: cannot write a {values.dtype} variable to netCDF")
-    if is_coordinate:
-        options["fill_value"] = False  # CF 2.5.1: no _FillValue on coordinate data
-    elif kind == "f":
-        options["fill_value"] = np.nan
-    if kind == "f" and not is_coordinate and values.size > 1:
-        options.update(COMPRESSION)
-    variable = nc.createVariable(name, dtype, dims, **options)
+    width = max(1, values.shape[-1]) if values.ndim else 1
+    if name in nc.variables:  # streamed: its values are in the file
+        variable = nc.variables[name]
+        values = None
+    else:
+        options = _storage(kind, is_coordinate, values.size)
+        if "zlib" in options and values.nbytes > SLAB_BYTES:  # long: in slabs, below
+            width = max(1, SLAB_BYTES // values.dtype.itemsize)
+            options["chunksizes"] = (1,) * (values.ndim - 1) + (min(width, values.shape[-1]),)
+        variable = nc.createVariable(name, dtype, dims, **options)
+        if "chunksizes" in options:
+            variable.set_var_chunk_cache(size=SLAB_BYTES, nelems=1)
     encoding = attributes.pop("_Encoding", None)
     if encoding is not None:
         variable.setncattr("_Encoding", encoding)
@@ -805,10 +825,128 @@ def _write_variable(
         variable.setncattr(key, _attribute(f"{name}.{key}", value))
     if dtype == "S1":
         variable.set_auto_chartostring(False)  # the character array is written as is
+    if values is None:
+        return
     if values.ndim == 0:
         variable.assignValue(values)
-    else:
-        variable[...] = values
+        return
+    for first in range(0, values.shape[-1], width):  # whole chunks, written once
+        variable[..., first : first + width] = values[..., first : first + width]
+
+
+def _storage(kind: str, is_coordinate: bool, size: int) -> dict[str, Any]:
+    """``createVariable``'s fill value and compression of a variable of numpy ``kind``."""
+    options: dict[str, Any] = {}
+    if is_coordinate:
+        options["fill_value"] = False  # CF 2.5.1: no _FillValue on coordinate data
+    elif kind == "f":
+        options["fill_value"] = np.nan
+    if kind == "f" and not is_coordinate and size > 1:
+        options.update(COMPRESSION)
+    return options
+
+
+# --------------------------------------------------------------------------- streamed record
+RECORD_VARIABLES = (  # a trace record's columns (kernels.flights), as variables
+    ("displacement", np.float64),
+    ("velocity", np.float64),
+    ("normal_force", np.float64),
+    ("in_contact", np.int8),
+)
+
+
+class RecordStream:
+    """A trace's netCDF file written while the trace runs: a
+    :class:`~hertzsweep.drivers.trace.RecordSink` writing each recorded chunk (and the
+    ``tau``, ``time`` coordinates) into the file, on disk, so that no whole record is
+    ever held in memory; :meth:`finish` writes the rest of the dataset
+    (:func:`trace_dataset` of the result) and closes it.
+
+    For records too large to hold (:func:`hertzsweep.core.checks.streams_record`); the
+    file is the one :func:`write_netcdf` writes (the same variables, attributes and
+    values). Used inside :func:`~.paths.atomic_path`, so the output
+    is complete or absent. The netCDF library reports a failed write as "HDF error":
+    it becomes the OS's ``OSError`` (no space left, when the disk's free space is below
+    a chunk; else an I/O error quoting the library).
+    """
+
+    def __init__(self, path: str | os.PathLike, omega: float) -> None:
+        self.path = os.fspath(path)
+        self.omega = float(omega)
+        self.nc: Any = None
+        self.sample_step = 0.0
+
+    def __enter__(self) -> RecordStream:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.nc is not None:  # not finished: the temporary is discarded anyway
+            with contextlib.suppress(Exception):
+                self.nc.close()
+            self.nc = None
+
+    def open(self, sigma: int, samples: int, chunk: int, sample_step: float) -> None:
+        """Create the file, its ``sigma`` and ``sample`` dimensions and the streamed
+        variables, stored in HDF5 chunks of the recorded chunks (one sigma x ``chunk``
+        samples), each variable's chunk cache one chunk: every chunk is written whole,
+        once, so the file costs no memory that grows with the record."""
+        import netCDF4
+
+        self.sample_step = float(sample_step)
+        with self._writing():
+            nc = self.nc = netCDF4.Dataset(self.path, "w", format="NETCDF4")
+            nc.createDimension("sigma", sigma)
+            nc.createDimension("sample", samples)
+            for name in ("tau", "time"):
+                nc.createVariable(name, np.float64, ("sample",), **_storage("f", True, samples))
+            for name, dtype in RECORD_VARIABLES:
+                kind = np.dtype(dtype).kind
+                options = _storage(kind, False, sigma * samples)
+                variable = nc.createVariable(
+                    name, dtype, ("sigma", "sample"), chunksizes=(1, chunk), **options
+                )
+                variable.set_var_chunk_cache(size=chunk * np.dtype(dtype).itemsize, nelems=1)
+
+    def write(self, s: int, first: int, rows: np.ndarray) -> None:
+        """Samples ``first ..`` of sigma ``s`` (float[n, 4], the record's columns)."""
+        span = slice(first, first + rows.shape[0])
+        with self._writing():
+            if s == 0:  # the same arithmetic as TraceResult.tau and trace_dataset
+                tau = np.arange(span.start, span.stop) * self.sample_step
+                self.nc["tau"][span] = tau
+                self.nc["time"][span] = tau / self.omega
+            for c, (name, dtype) in enumerate(RECORD_VARIABLES):
+                self.nc[name][s, span] = rows[:, c].astype(dtype, copy=False)
+
+    def finish(self, ds: Frame) -> None:
+        """The rest of the dataset (its streamed variables get their attributes), closed."""
+        with self._writing():
+            _fill(self.nc, ds)
+            nc, self.nc = self.nc, None
+            nc.close()
+
+    @contextlib.contextmanager
+    def _writing(self) -> Any:
+        try:
+            yield
+        except RuntimeError as exc:  # netCDF4's "NetCDF: HDF error" and the like
+            raise _write_error(self.path, exc) from None
+
+
+WRITE_MARGIN = 1 << 20  # [bytes] free space below which a failed write means a full disk
+
+
+def _write_error(path: str, exc: Exception) -> OSError:
+    """The OS error a failed netCDF write most likely was: no space left when the disk
+    holding ``path`` has less than :data:`WRITE_MARGIN` free, else an I/O error quoting
+    the library."""
+    free = None
+    with contextlib.suppress(OSError):
+        stat = os.statvfs(os.path.dirname(os.path.abspath(path)))
+        free = stat.f_bavail * stat.f_frsize
+    if free is not None and free < WRITE_MARGIN:
+        return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
+    return OSError(errno.EIO, f"{os.strerror(errno.EIO)} (netCDF: {exc})", path)
 
 
 def _utf8(name: str, values: np.ndarray) -> np.ndarray:
