@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from hertzsweep.core.config import load_scene
+from hertzsweep.drivers import shooting
 from hertzsweep.drivers.bench import compare_with_settle
 from hertzsweep.drivers.oscillator import Oscillator
 from hertzsweep.drivers.shooting import PeriodMap, newton, shooting_dwell
@@ -124,8 +125,13 @@ def test_shooting_dwell_on_a_period_doubled_response_reports_unsettled():
     orbit = newton(PeriodMap(oscillator), oscillator.rest(2.0), 2.0)
     assert orbit.converged and not orbit.stable
     assert orbit.multipliers[0].imag == 0.0 and orbit.multipliers[0].real < -1.0
+    oscillator.steps = 0
     state, reading, settled = shooting_dwell(oscillator, oscillator.rest(2.0), 2.0)
     assert not settled and not reading.periodic
+    # the whole budget of max_settle_periods went to the transient (Newton's evaluations
+    # besides), then the scene's measured periods
+    periods = oscillator.steps // scene.solver.steps_per_period
+    assert periods >= 2000 + scene.sweep.measure_periods, periods
 
 
 @pytest.fixture(scope="module")
@@ -154,3 +160,81 @@ def test_shooting_sweep_agrees_with_the_settled_sweep(comparison):
     long = run_sweep(replace(scene, sweep=replace(scene.sweep, settle_periods=3000)))
     difference = np.abs(shooting.amplitude[..., 0] - long.amplitude[..., 0])
     assert difference.max() < 1e-8
+
+
+# --------------------------------------------------------------------------- the compiled walk
+PERIOD_DOUBLING = {  # up through w = 2, where the T-periodic orbit is unstable (above)
+    "excitation": {"sigma": [0.3]},
+    "sweep": {
+        "start": 1.8,
+        "stop": 2.2,
+        "step": 0.05,
+        "max_settle_periods": 2000,
+        "steady_state": "shooting",
+        "directions": ["up"],
+    },
+}
+
+
+def dwell_by_dwell(scene, sigma):
+    """The up sweep one Python dwell at a time (:func:`shooting_dwell`: Newton without
+    prediction, the transient where it fails): what the compiled walk must read."""
+    oscillator = Oscillator(scene, sigma)
+    w = scene.sweep.frequency_ratios
+    state = oscillator.rest(w[0])
+    readings = []
+    for frequency in w:
+        before = oscillator.steps
+        state, reading, settled = shooting_dwell(oscillator, state, frequency)
+        periods = (oscillator.steps - before) // scene.solver.steps_per_period
+        readings.append((reading, settled, periods))
+    return readings
+
+
+@pytest.mark.parametrize(
+    "tables",
+    [
+        {**VISCOUS_1, "sweep": {"start": 0.95, "stop": 1.02, "steady_state": "shooting"}},
+        PERIOD_DOUBLING,
+    ],
+    ids=["jump", "period-doubling"],
+)
+def test_compiled_walk_reads_what_each_dwell_reads_bit_for_bit(tables):
+    # the walk (compiled Newton with its last iterate read unevaluated, the transient
+    # past a fold, the unsettled dwell of a period doubling) against shooting_dwell one
+    # dwell at a time: the same readings and verdicts, bit for bit, at every dwell
+    scene = make_scene(**{**tables, "sweep": {**tables["sweep"], "directions": ["up"]}})
+    sigma = float(np.atleast_1d(scene.excitation.sigma)[0])
+    result = run_sweep(scene)
+    expected = dwell_by_dwell(scene, sigma)
+    jumps = [
+        abs(b[0].amplitude[0] - a[0].amplitude[0])
+        for a, b in zip(expected[:-1], expected[1:], strict=True)
+    ]
+    unsettled = [periods for _, settled, periods in expected if not settled]
+    assert max(jumps) > 0.2 or unsettled  # a jump or a period doubling was walked through
+    # an unsettled dwell spent the whole transient budget (Newton's tries besides)
+    budget = scene.sweep.max_settle_periods + scene.sweep.measure_periods
+    assert all(periods >= budget for periods in unsettled), (unsettled, budget)
+    for i, (reading, settled, _) in enumerate(expected):
+        assert result.settled[0, 0, i] == settled, i
+        np.testing.assert_array_equal(result.amplitude[0, 0, i], reading.amplitude, err_msg=str(i))
+        np.testing.assert_array_equal(result.phase[0, 0, i], reading.phase, err_msg=str(i))
+        assert result.force_max[0, 0, i] == reading.force_max, i
+        assert result.mean_force[0, 0, i] == reading.mean_force, i
+
+
+def test_predicting_newtons_last_iterate_changes_no_number(monkeypatch):
+    # the default scene's shooting sweep (four jumps) with and without the walk reading
+    # Newton's last iterate before evaluating it: the same data bit for bit, and one
+    # period fewer at 166 of the 244 dwells (the evaluation the reading replaces; not
+    # where Newton converges at its first evaluation, nor near a fold)
+    scene = load_scene(CONFIGS / "default.toml", ["sweep.steady_state=shooting"])
+    predicted = run_sweep(scene)
+    monkeypatch.setattr(shooting, "PREDICT_RESIDUAL", 0.0)
+    plain = run_sweep(scene)
+    for name in ("amplitude", "phase", "mean_force", "force_max", "force_min", "settled"):
+        np.testing.assert_array_equal(getattr(predicted, name), getattr(plain, name), name)
+    dwells = predicted.settled.size
+    saved = (plain.steps - predicted.steps) // scene.solver.steps_per_period
+    assert 0.5 * dwells < saved <= dwells, (saved, dwells)

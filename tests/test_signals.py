@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from hertzsweep.drivers.oscillator import Oscillator, drive
-from hertzsweep.drivers.shooting import PeriodMap, newton_settings
+from hertzsweep.drivers.shooting import PREDICT_RESIDUAL, PeriodMap, newton_settings, transient
 from hertzsweep.errors import Interrupted
 from hertzsweep.kernels import integrate, scheme, stop, tangent
 from hertzsweep.kernels.laws import make_law
@@ -69,11 +69,13 @@ def _shooting_walk(periods):
     scene = make_scene(solver={"steps_per_period": 2**20 if periods == LONG else 64})
     oscillator = Oscillator(scene, 0.01)
     steps = np.full(1000 if periods == LONG else 1, oscillator.step(0.95))
-    settings = newton_settings(PeriodMap(oscillator), monotone=True)
+    period = PeriodMap(oscillator)
+    settings = newton_settings(period, monotone=True, predict=PREDICT_RESIDUAL)
+    settling = transient(period, 2000)
     readout = integrate.new_readout(2, steps.size)
     x = np.array([0.0, 0.0, steps[0]])
     law, levels = oscillator.law, oscillator.drive
-    stop_at, _ = tangent.shooting_walk(x, steps, law, levels, settings, readout, 0)
+    stop_at, _, _ = tangent.shooting_walk(x, steps, law, levels, settings, readout, 0, settling)
     return scheme.STOPPED if stop_at < steps.size else scheme.OK
 
 

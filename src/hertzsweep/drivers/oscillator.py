@@ -77,6 +77,10 @@ class Reading:
 BLOCK_ARRAYS = READING_FIELDS + ("periodic", "coefficients")  # a Block's arrays over t
 
 
+assert SUM_FIELDS == ("total", "force_max", "force_min", "q_prev_last", "q_last", "q_prev", "q")
+assert COUNT_FIELDS == ("loss", "longest", "lead", "trail")  # unpacked so by Block.read
+
+
 @dataclass
 class Block(Readings):
     """What one measured block read, for T trajectories (or T dwells) at once: the arrays
@@ -100,27 +104,22 @@ class Block(Readings):
         """The block of the kernels' ``buffers`` (``samples`` steps of step ``h[t]``);
         ``periodic`` where the state after the last period returns to its start within
         ``tolerance`` (relative to the response's scale)."""
-        sums = dict(zip(SUM_FIELDS, buffers.sums, strict=True))
-        counts = dict(zip(COUNT_FIELDS, buffers.counts, strict=True))
-        lead, trail = counts["lead"], counts["trail"]
-        flight_steps = np.where(
-            lead == samples, samples, np.maximum(counts["longest"], lead + trail)
-        )
-        coefficients = np.moveaxis(buffers.coefficients, -1, 0).copy()
+        total, fmax, fmin, q_prev_last, q_last, q_prev, q = buffers.sums  # SUM_FIELDS
+        loss, longest, lead, trail = buffers.counts  # COUNT_FIELDS
+        flight_steps = np.where(lead == samples, samples, np.maximum(longest, lead + trail))
+        coefficients = buffers.coefficients.transpose(2, 0, 1).copy()
         amplitude, phase = amplitude_phase(coefficients, samples)
-        fmax, fmin = sums["force_max"], sums["force_min"]
-        q_prev_last, q_last = sums["q_prev_last"], sums["q_last"]
-        scale = np.maximum.reduce(
-            [np.abs(q_last), np.abs(q_prev_last), 0.5 * (fmax - fmin), np.full_like(fmax, 1e-300)]
+        scale = np.maximum(
+            np.maximum(np.abs(q_last), np.abs(q_prev_last)), np.maximum(0.5 * (fmax - fmin), 1e-300)
         )
-        mismatch = np.maximum(np.abs(sums["q"] - q_last), np.abs(sums["q_prev"] - q_prev_last))
+        mismatch = np.maximum(np.abs(q - q_last), np.abs(q_prev - q_prev_last))
         return cls(
             amplitude=amplitude,
             phase=phase,
-            mean_force=1.0 + sums["total"] / samples,
+            mean_force=1.0 + total / samples,
             force_max=fmax.copy(),
             force_min=fmin.copy(),
-            contact_loss_fraction=counts["loss"] / samples,
+            contact_loss_fraction=loss / samples,
             flight_tau=flight_steps * h,
             periodic=mismatch / scale < tolerance,
             coefficients=coefficients,

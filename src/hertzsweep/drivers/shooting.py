@@ -29,7 +29,7 @@ polish by Newton.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,7 +37,7 @@ from ..core.model import force_bound
 from ..kernels import tangent
 from ..kernels.integrate import Readout, new_readout
 from ..kernels.scheme import OK
-from ..kernels.tangent import CONVERGED_PERIODS, NewtonSettings
+from ..kernels.tangent import CONVERGED_PERIODS, NewtonSettings, Transient
 from .oscillator import Block, Oscillator, Reading, State
 
 NEWTON_TOLERANCE = 1e-10  # residual |P(x) - x|_inf / Q of a converged orbit: 1e4 x above the
@@ -46,6 +46,9 @@ MAX_NEWTON_ITERATIONS = 12  # quadratic convergence needs 3-5 from a neighbourin
 TRANSIENT_BLOCK = 10  # periods integrated between two checks of the one-period mismatch
 TRANSIENT_TOLERANCE = 1e-3  # |x(T) - x(0)|_inf / Q below which a transient is close enough to
 # its attractor to polish by Newton (Newton's basin around a stable orbit is far wider)
+PREDICT_RESIDUAL = 1e-6  # a sweep's walk takes Newton's next iterate from a residual this
+# small (quadratic convergence: about 1e-12, below NEWTON_TOLERANCE) without evaluating
+# it, reads its period instead, and checks there that it repeats (else Newton goes on)
 STABILITY_MARGIN = 1e-9  # |multiplier| below 1 - this counts as stable (round-off of M)
 
 
@@ -84,9 +87,8 @@ class Orbit:
     state : State
         The fixed point (or the last iterate when not converged), excitation phase 0.
     frequency_ratio : [1] w.
-    multipliers : complex[2]
-        Floquet multipliers, largest modulus first (a complex pair: positive imaginary
-        part first).
+    monodromy : float[2, 2]
+        M at the last iterate evaluated (NaN where none was).
     residuals : tuple of float
         ``|P(x) - x|_inf / Q`` at each iterate, the first at the starting state.
     converged : bool
@@ -95,14 +97,25 @@ class Orbit:
 
     state: State
     frequency_ratio: float
-    multipliers: np.ndarray
+    monodromy: np.ndarray
     residuals: tuple[float, ...]
     converged: bool
 
     @property
+    def multipliers(self) -> np.ndarray:
+        """Floquet multipliers, largest modulus first (a complex pair: positive imaginary
+        part first); NaN where no period was evaluated."""
+        if not np.all(np.isfinite(self.monodromy)):
+            return np.full(2, np.nan + 0j)
+        return sorted_multipliers(self.monodromy)
+
+    @property
     def stable(self) -> bool:
-        """Both multipliers inside the unit circle (asymptotically stable)."""
-        return bool(self.converged and np.max(np.abs(self.multipliers)) < 1.0 - STABILITY_MARGIN)
+        """Both multipliers inside the unit circle (asymptotically stable), judged as the
+        compiled walk judges (:func:`~hertzsweep.kernels.tangent.largest_multiplier`)."""
+        if not self.converged or not np.all(np.isfinite(self.monodromy)):
+            return False
+        return bool(tangent.largest_multiplier(self.monodromy) < 1.0 - STABILITY_MARGIN)
 
 
 def orbit_scale(sigma: float, zeta: float) -> float:
@@ -159,11 +172,21 @@ class PeriodMap:
 
 
 def newton_settings(
-    period: PeriodMap, monotone: bool, max_iterations: int = MAX_NEWTON_ITERATIONS
+    period: PeriodMap,
+    monotone: bool,
+    max_iterations: int = MAX_NEWTON_ITERATIONS,
+    predict: float = 0.0,
 ) -> NewtonSettings:
-    """The compiled Newton's settings for an oscillator's period map."""
+    """The compiled Newton's settings for an oscillator's period map (``predict``: see
+    :class:`~hertzsweep.kernels.tangent.NewtonSettings`)."""
     return NewtonSettings(
-        period.scale, period.shape, NEWTON_TOLERANCE, max_iterations, monotone, STABILITY_MARGIN
+        period.scale,
+        period.shape,
+        NEWTON_TOLERANCE,
+        max_iterations,
+        monotone,
+        STABILITY_MARGIN,
+        predict,
     )
 
 
@@ -191,14 +214,15 @@ def newton(
     residuals = np.full(max_iterations + 1, np.inf)
     monodromy = np.zeros((2, 2))
     h = osc.step(frequency_ratio)
-    q_prev, q, evaluations, converged = tangent.newton(
+    q_prev, q, evaluations, outcome = tangent.newton(
         state.q_prev, state.q, h, osc.law, osc.drive, settings, residuals, monodromy
     )
     osc.steps += evaluations * osc.steps_per_period
-    evaluated = np.isfinite(residuals[evaluations - 1])
-    multipliers = sorted_multipliers(monodromy) if evaluated else np.full(2, np.nan + 0j)
+    if not np.isfinite(residuals[evaluations - 1]):
+        monodromy[:] = np.nan
     orbit = State(q_prev, q, h)
-    return Orbit(orbit, frequency_ratio, multipliers, tuple(residuals[:evaluations]), converged)
+    converged = outcome == tangent.CONVERGED  # settings.predict = 0: never PREDICTED
+    return Orbit(orbit, frequency_ratio, monodromy, tuple(residuals[:evaluations]), converged)
 
 
 def mismatch(period: PeriodMap, before: State, after: State) -> float:
@@ -206,37 +230,39 @@ def mismatch(period: PeriodMap, before: State, after: State) -> float:
     return max(abs(after.q - before.q), abs(after.q_prev - before.q_prev)) / period.scale
 
 
+def transient(period: PeriodMap, max_periods: int) -> Transient:
+    """The compiled transient's settings: blocks of :data:`TRANSIENT_BLOCK` periods, down
+    to a one-period mismatch of :data:`TRANSIENT_TOLERANCE` of Q, at most ``max_periods``."""
+    return Transient(TRANSIENT_BLOCK, TRANSIENT_TOLERANCE * period.scale, int(max_periods))
+
+
 def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods: int) -> Orbit:
-    """Integrate the transient from ``state`` to its attractor, then polish by Newton.
+    """Integrate the transient from ``state`` to its attractor, then polish by Newton
+    (compiled: :func:`hertzsweep.kernels.tangent.settle`).
 
     Blocks of :data:`TRANSIENT_BLOCK` periods until the one-period mismatch is below
     :data:`TRANSIENT_TOLERANCE`; there Newton (monotone) must land on a stable orbit,
     otherwise integration goes on, at most ``max_periods`` periods in all. Returns the
-    last Newton solve (``stable`` false when no stable period-1 orbit was reached, e.g.
-    after a period doubling), whose state is where the integration stopped when Newton
-    failed.
+    stable orbit (its residuals not kept), or, where none was reached (e.g. after a
+    period doubling), the state where the integration stopped, not converged.
     """
     osc = period.oscillator
-    periods = 0
-    orbit = None
-    tolerance = TRANSIENT_TOLERANCE * period.scale
-    while periods < max_periods:
-        q_prev, q, done, status, close = tangent.approach(
-            state.q_prev, state.q, state.h, osc.law, osc.drive, TRANSIENT_BLOCK,
-            max_periods - periods, tolerance,
-        )  # fmt: skip
-        osc.steps += done * osc.steps_per_period
-        osc.check_status(status, frequency_ratio)
-        periods += done
-        state = State(q_prev, q, state.h)
-        if not close:
-            break
-        orbit = newton(period, state, frequency_ratio, monotone=True)
-        if orbit.stable:
-            return orbit
-    if orbit is None or orbit.converged:
-        orbit = Orbit(state, frequency_ratio, np.full(2, np.nan + 0j), (np.inf,), False)
-    return replace(orbit, state=state)
+    monodromy = np.zeros((2, 2))
+    a, q, periods, status, stable = tangent.settle(
+        state.q_prev,
+        state.q,
+        state.h,
+        osc.law,
+        osc.drive,
+        newton_settings(period, monotone=True),
+        transient(period, max_periods),
+        monodromy,
+    )
+    osc.steps += periods * osc.steps_per_period
+    osc.check_status(status, frequency_ratio)
+    if stable:
+        return Orbit(State(a, q, state.h), frequency_ratio, monodromy, (), True)
+    return Orbit(State(a, q, state.h), frequency_ratio, np.full((2, 2), np.nan), (np.inf,), False)
 
 
 def find_orbit(period: PeriodMap, state: State, frequency_ratio: float) -> Orbit:
@@ -276,22 +302,26 @@ def shooting_dwell(
 
 def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray):
     """Shooting dwells over a sequence of frequencies (a sweep), as :func:`shooting_dwell`
-    at each, in one compiled loop for as long as Newton lands on a stable orbit
-    (:func:`hertzsweep.kernels.tangent.shooting_walk`); a dwell where it does not (past a
-    fold) goes through :func:`shooting_dwell` (integrate the transient, polish), then the
-    compiled loop resumes. Yields ``(positions, block, settled)`` as a strategy's walk.
+    at each, in one compiled loop (:func:`hertzsweep.kernels.tangent.shooting_walk`):
+    Newton from the previous orbit, and past a fold the transient to the new attractor,
+    polished. Where no stable orbit is reached (a period doubling, say) the scene's
+    ``measure_periods`` are read where the transient stopped, unsettled, as
+    :func:`shooting_dwell` does, and the compiled loop resumes. Yields ``(positions,
+    block, settled)`` as a strategy's walk.
     """
     n = oscillator.steps_per_period
     steps = np.array([oscillator.step(w) for w in frequencies])
-    settings = newton_settings(PeriodMap(oscillator), monotone=True)
+    period = PeriodMap(oscillator)
+    settings = newton_settings(period, monotone=True, predict=PREDICT_RESIDUAL)
+    settling = transient(period, oscillator.scene.sweep.max_settle_periods)
     buffers = new_readout(oscillator.harmonics.size, steps.size)
     x = np.array([state.q_prev, state.q, state.h])
     start = 0
     buffers.sums[0] = np.nan  # a dwell the compiled walk finished has its sums
     while start < steps.size:
         try:
-            stop, periods = tangent.shooting_walk(
-                x, steps, oscillator.law, oscillator.drive, settings, buffers, start
+            stop, periods, unsettled = tangent.shooting_walk(
+                x, steps, oscillator.law, oscillator.drive, settings, buffers, start, settling
             )
         except KeyboardInterrupt:  # a signal stopped the walk: keep the dwells it finished
             stop = start + int(np.argmin(np.isfinite(buffers.sums[0, start:])))
@@ -301,7 +331,12 @@ def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray)
         yield from _walked(oscillator, buffers, steps, start, stop)
         if stop == steps.size:
             return
-        state, reading, settled = shooting_dwell(oscillator, State(*x), frequencies[stop])
+        if unsettled:  # no stable orbit: read the scene's measured periods where it stopped
+            measured = oscillator.scene.sweep.measure_periods
+            state, reading = oscillator.measure(State(*x), frequencies[stop], measured)
+            settled = False
+        else:  # a kernel status stopped the dwell: run it again here, to report it
+            state, reading, settled = shooting_dwell(oscillator, State(*x), frequencies[stop])
         yield slice(stop, stop + 1), Block.of(reading), np.array([settled])
         x[:] = state.q_prev, state.q, state.h
         start = stop + 1

@@ -229,14 +229,22 @@ CONVERGED_PERIODS = 1  # periods read on a converged stable orbit: all its perio
 # period, to the Newton residual (1e-10 of Q), so one period reads what any number would
 
 NewtonSettings = namedtuple(
-    "NewtonSettings", ["scale", "basis", "tolerance", "max_iterations", "monotone", "margin"]
+    "NewtonSettings",
+    ["scale", "basis", "tolerance", "max_iterations", "monotone", "margin", "predict"],
 )
 """Newton on the one-period map (:func:`newton`): the orbit scale Q and the scaled
 coordinates z of the state ``x = Q basis z`` (``basis`` float64[2, 2], the method's, of
 the form ``[[b00, b01], [1, 0]]``: ``z0 = q / Q``; see :mod:`.methods`), the residual
 ``|P(x) - x|_inf / Q`` that counts as converged, the most iterations, whether to stop as
-soon as a correction fails to shrink, and the margin below 1 of the largest Floquet
-multiplier's modulus that counts as stable."""
+soon as a correction fails to shrink, the margin below 1 of the largest Floquet
+multiplier's modulus that counts as stable, and the residual at or below which the
+corrected iterate is returned unevaluated (:data:`PREDICTED`; 0: never), for a caller
+that integrates it anyway (:func:`shooting_walk` reads its period)."""
+
+PREDICTED_MARGIN = 1e-4  # a predicted orbit whose largest multiplier is this close to 1 (a
+# fold near) is solved unpredicted: its stability is then judged at the orbit itself
+FAILED, CONVERGED, PREDICTED = 0, 1, 2  # what newton returns: not converged; the last
+# iterate evaluated is the fixed point; the last correction applied, not yet evaluated
 
 
 @njit(cache=CACHE, error_model="numpy", nogil=True)
@@ -258,8 +266,10 @@ def newton(a, q, h, law, drive, settings, residuals, monodromy):
     Returns
     -------
     tuple
-        ``(a, q, evaluations, converged)``: the last iterate evaluated (the fixed point
-        when converged), the number of periods integrated.
+        ``(a, q, evaluations, outcome)``: the last iterate evaluated (the fixed point
+        when :data:`CONVERGED`; the corrected one, unevaluated, when :data:`PREDICTED`),
+        the number of periods integrated, and :data:`FAILED`, :data:`CONVERGED` or
+        :data:`PREDICTED` (only with ``settings.predict > 0``).
     """
     scale, b = settings.scale, settings.basis
     z0 = q / scale  # every method's basis is [[b00, b01], [1, 0]]: z0 = q / Q
@@ -276,9 +286,9 @@ def newton(a, q, h, law, drive, settings, residuals, monodromy):
         residuals[iteration] = max(abs(g0), abs(g1)) if ok else np.inf
         monodromy[:, :] = derivative[:, :2]
         if not ok:
-            return x0, x1, iteration + 1, False
+            return x0, x1, iteration + 1, FAILED
         if residuals[iteration] <= settings.tolerance:
-            return x0, x1, iteration + 1, True
+            return x0, x1, iteration + 1, CONVERGED
         if iteration == settings.max_iterations:
             break
         a00, a01 = monodromy[0, 0] - 1.0, monodromy[0, 1]
@@ -287,16 +297,20 @@ def newton(a, q, h, law, drive, settings, residuals, monodromy):
         j10, j11 = a10 * b[0, 0] + a11 * b[1, 0], a10 * b[0, 1] + a11 * b[1, 1]
         det_j = j00 * j11 - j01 * j10
         if det_j == 0.0 or not math.isfinite(det_j):
-            return x0, x1, iteration + 1, False
+            return x0, x1, iteration + 1, FAILED
         c0 = (g0 * j11 - j01 * g1) / det_j
         c1 = (j00 * g1 - j10 * g0) / det_j
         size = max(abs(c0), abs(c1))
         if settings.monotone and size >= previous:
-            return x0, x1, iteration + 1, False
+            return x0, x1, iteration + 1, FAILED
         previous = size
         z0 -= c0
         z1 -= c1
-    return x0, x1, settings.max_iterations + 1, False
+        if residuals[iteration] <= settings.predict:
+            x0 = scale * (b[0, 0] * z0 + b[0, 1] * z1)
+            x1 = scale * (b[1, 0] * z0 + b[1, 1] * z1)
+            return x0, x1, iteration + 1, PREDICTED
+    return x0, x1, settings.max_iterations + 1, FAILED
 
 
 @njit(cache=CACHE)
@@ -311,19 +325,69 @@ def largest_multiplier(monodromy):
     return max(abs(0.5 * (trace + root)), abs(0.5 * (trace - root)))
 
 
-@njit(cache=CACHE, error_model="numpy", nogil=True)
-def shooting_walk(state, steps, law, drive, settings, readout, start):
-    """Stepped-sine dwells by shooting, from dwell ``start`` on, for as long as Newton
-    (monotone) lands on a stable orbit at every one: retune the state (float64[3]: the
-    method's first member, q, h) to ``steps[i]``, solve the orbit, read
-    :data:`CONVERGED_PERIODS` of it into column i of ``readout``
-    (:class:`~hertzsweep.kernels.integrate.Readout` over the dwells).
+Transient = namedtuple("Transient", ["block", "tolerance", "max_periods"])
+"""A transient run up to its attractor (:func:`settle`): periods between two checks of
+the one-period mismatch, the mismatch (absolute, in q and the method's other member)
+below which Newton polishes, the most periods in all."""
 
-    Returns ``(stop, periods)``: the first dwell Newton could not settle (``len(steps)`` if
-    none; ``state`` then holds its retuned start) and the periods integrated in all.
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def settle(a, q, h, law, drive, settings, transient, monodromy):
+    """Integrate the transient from ``(a, q)`` to its attractor, then polish by Newton.
+
+    Blocks of ``transient.block`` periods (:func:`approach`) until the one-period
+    mismatch is within ``transient.tolerance``; there Newton must land on a stable orbit,
+    otherwise integration goes on from where it was, at most ``transient.max_periods``
+    periods of it in all (Newton's evaluations besides).
+
+    Returns ``(a, q, periods, status, stable)``: the stable orbit (``monodromy`` its M),
+    or where the integration stopped (not stable: e.g. after a period doubling; or a
+    status other than OK), and the periods integrated.
     """
     residuals = np.empty(settings.max_iterations + 1)
-    monodromy = np.zeros((2, 2))
+    integrated = 0  # periods of the transient: the budget counts no Newton evaluation
+    periods = 0
+    while integrated < transient.max_periods:
+        count = transient.max_periods - integrated
+        a, q, done, status, close = approach(
+            a, q, h, law, drive, transient.block, count, transient.tolerance
+        )
+        integrated += done
+        periods += done
+        if status != OK or not close:
+            return a, q, periods, status, False
+        x0, x1, evaluations, outcome = newton(a, q, h, law, drive, settings, residuals, monodromy)
+        periods += evaluations
+        if outcome == CONVERGED and largest_multiplier(monodromy) < 1.0 - settings.margin:
+            return x0, x1, periods, OK, True
+    return a, q, periods, OK, False
+
+
+@njit(cache=CACHE)
+def _repeats(a, q, a_after, q_after, settings):
+    """Whether the state ``(a, q)`` returns to itself after one period (the state read
+    after it) within Newton's tolerance: the residual :func:`newton` would evaluate."""
+    residual = max(abs((a_after - a) / settings.scale), abs((q_after - q) / settings.scale))
+    return residual <= settings.tolerance
+
+
+READ, UNSETTLED, LOST = 0, 1, 2  # a dwell of the walk: its orbit found and read; no
+# stable orbit reached (the state where the integration stopped); a kernel status
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def shooting_walk(state, steps, law, drive, settings, readout, start, transient):
+    """Stepped-sine dwells by shooting, from dwell ``start`` on: retune the state
+    (float64[3]: the method's first member, q, h) to ``steps[i]``, solve the orbit
+    (:func:`_dwell_orbit`), read :data:`CONVERGED_PERIODS` of it into column i of
+    ``readout`` (:class:`~hertzsweep.kernels.integrate.Readout` over the dwells).
+
+    Returns ``(stop, periods, unsettled)``: the first dwell whose orbit was not found
+    (``len(steps)`` if none) and the periods integrated in all; ``unsettled``: at that
+    dwell the transient ran ``transient.max_periods`` without reaching a stable orbit
+    and ``state`` holds where it stopped (else ``state`` holds the dwell's retuned start:
+    a kernel status stopped it, for the caller to run again and report).
+    """
     one = Readout(
         np.zeros((readout.coefficients.shape[0], 2, 1)),
         np.zeros((readout.sums.shape[0], 1)),
@@ -331,29 +395,91 @@ def shooting_walk(state, steps, law, drive, settings, readout, start):
         np.zeros((0, 4, 1)),
         0,
     )
+    monodromy = np.zeros((2, 2))
     periods = 0
     for i in range(start, steps.shape[0]):
         if steps[i] != state[2]:
             state[0] = restart(state[0], state[1], state[2], steps[i], law, drive)
             state[2] = steps[i]
-        x0, x1, evaluations, converged = newton(
-            state[0], state[1], state[2], law, drive, settings, residuals, monodromy
-        )
-        periods += evaluations
-        if not converged or largest_multiplier(monodromy) >= 1.0 - settings.margin:
-            return i, periods
-        q_prev, q = np.array([x0]), np.array([x1])
+        a, q, count, found = _dwell_orbit(state, law, drive, settings, transient, monodromy, one)
+        periods += count
+        if found == LOST:
+            return i, periods, False
+        if found == UNSETTLED:
+            state[0], state[1] = a, q
+            return i, periods, True
+        _store(readout, i, one, state, a, q)
+    return steps.shape[0], periods, False
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def _dwell_orbit(state, law, drive, settings, transient, monodromy, one):
+    """One dwell of :func:`shooting_walk`, as ``drivers.shooting.shooting_dwell``: Newton
+    (monotone) from the retuned ``state``; where it fails or lands on an unstable orbit (a
+    fold was passed), the transient to the new attractor, polished (:func:`settle`).
+    On a stable orbit its period is read into ``one``.
+
+    Newton runs with ``settings.predict``: its last iterate is read without evaluating it
+    first, and where it does not repeat after that period (or the largest multiplier at
+    the iterate before is within :data:`PREDICTED_MARGIN` of 1), Newton runs again from
+    the start without prediction: every dwell gets the iterates, the orbit and the
+    stability verdict of Newton without prediction, bit for bit.
+
+    Returns ``(a, q, periods, found)``: the state after the period read (:data:`READ`),
+    where the transient stopped (:data:`UNSETTLED`), or nothing (:data:`LOST`).
+    """
+    unpredicted = NewtonSettings(
+        settings.scale,
+        settings.basis,
+        settings.tolerance,
+        settings.max_iterations,
+        settings.monotone,
+        settings.margin,
+        0.0,
+    )
+    residuals = np.empty(settings.max_iterations + 1)
+    x0, x1, periods, outcome = newton(
+        state[0], state[1], state[2], law, drive, settings, residuals, monodromy
+    )
+    q_prev, q = np.array([x0]), np.array([x1])
+    if outcome == PREDICTED and largest_multiplier(monodromy) < 1.0 - PREDICTED_MARGIN:
         measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
         periods += CONVERGED_PERIODS
-        readout.coefficients[:, :, i] = one.coefficients[:, :, 0]
-        readout.sums[:, i] = one.sums[:, 0]
-        readout.counts[:, i] = one.counts[:, 0]
-        state[0], state[1] = q_prev[0], q[0]
-    return steps.shape[0], periods
+        if _repeats(x0, x1, q_prev[0], q[0], settings):  # converged, as evaluated
+            return q_prev[0], q[0], periods, READ
+    if outcome == PREDICTED:  # not the orbit yet, or a fold near
+        x0, x1, evaluations, outcome = newton(
+            state[0], state[1], state[2], law, drive, unpredicted, residuals, monodromy
+        )
+        periods += evaluations
+    if outcome == FAILED or largest_multiplier(monodromy) >= 1.0 - settings.margin:
+        x0, x1, count, status, stable = settle(
+            state[0], state[1], state[2], law, drive, unpredicted, transient, monodromy
+        )
+        periods += count
+        if status != OK:
+            return state[0], state[1], periods, LOST
+        if not stable:
+            return x0, x1, periods, UNSETTLED
+    q_prev[0], q[0] = x0, x1
+    measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
+    return q_prev[0], q[0], periods + CONVERGED_PERIODS, READ
+
+
+@njit(cache=CACHE)
+def _store(readout, i, one, state, a, q):
+    """Dwell i's reading into column i of the walk's readout; the state read after it."""
+    readout.coefficients[:, :, i] = one.coefficients[:, :, 0]
+    readout.sums[:, i] = one.sums[:, 0]
+    readout.counts[:, i] = one.counts[:, 0]
+    state[0], state[1] = a, q
 
 
 __all__ = [
+    "CONVERGED",
     "CONVERGED_PERIODS",
+    "FAILED",
+    "PREDICTED",
     "advance",
     "approach",
     "measure_one",
@@ -363,5 +489,7 @@ __all__ = [
     "largest_multiplier",
     "newton",
     "period_map",
+    "settle",
     "shooting_walk",
+    "Transient",
 ]
