@@ -44,7 +44,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..core.config import Scene
 from ..core.model import check_stability
@@ -349,6 +348,8 @@ class _Continuation:
             if out is None:
                 raise _CorrectorFailed
             return out
+
+        from scipy.optimize import brentq  # here: scipy.optimize takes 0.6 s to import
 
         try:
             s = brentq(

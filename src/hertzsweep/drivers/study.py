@@ -62,6 +62,7 @@ PRELOADED = (  # imported once by the local pool's fork server, inherited by eve
     __name__,
     "hertzsweep.drivers.sweep",
     "hertzsweep.drivers.continuation",
+    "hertzsweep.drivers.preload",  # and the kernels loaded from numba's cache
 )
 CASE_KINDS = ("sweep", "branch")  # what one case of a study can be (the dataset kinds with
 # a case driver, hertzsweep.output.kinds.STUDY_KINDS): known before anything heavy loads
@@ -322,7 +323,8 @@ def _worker_init(driver: int) -> None:
     """Local workers leave SIGINT to the driver (a terminal's Ctrl-C reaches the whole
     process group): the driver stops them itself, after the finished parts are safe.
     A watchdog thread ends the worker when the driver is gone (killed with SIGKILL: the
-    pool's queues would otherwise keep idle workers waiting for ever)."""
+    pool's queues would otherwise keep idle workers waiting for ever). The kernels are
+    loaded already: the fork server loaded them (:mod:`hertzsweep.drivers.preload`)."""
     import threading
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -337,9 +339,6 @@ def _worker_init(driver: int) -> None:
                 os._exit(1)
 
     threading.Thread(target=watch, name="hertzsweep-driver-watch", daemon=True).start()
-    from .warm import load_kernels
-
-    load_kernels()
 
 
 class Engine:
@@ -378,14 +377,32 @@ class LocalPool(Engine):
 
     def __init__(self, workers: int | None = None) -> None:
         import multiprocessing
+        import threading
 
         self.slots = max(1, int(workers or os.cpu_count() or 1))
         self._context = multiprocessing.get_context("forkserver")
         self._context.set_forkserver_preload(list(PRELOADED))
-        self._executor = self._new_executor()
-        # start the workers now: they import and warm up while the driver prepares
-        for _ in range(self.slots):
-            self._executor.submit(os.getpid)
+        self._executor: Any = None
+        self._start_error: BaseException | None = None
+        # start the fork server and the workers in the background: they import and load
+        # the kernels (about a second) while the driver imports what it needs
+        self._starting = threading.Thread(target=self._start, name="hertzsweep-pool-start")
+        self._starting.start()
+
+    def _start(self) -> None:
+        try:
+            self._executor = self._new_executor()
+            for _ in range(self.slots):
+                self._executor.submit(os.getpid)
+        except BaseException as exc:  # re-raised where the pool is first used
+            self._start_error = exc
+
+    def _started(self):
+        """The executor, once the background start is done (its error, if it failed)."""
+        self._starting.join()
+        if self._start_error is not None:
+            raise self._start_error
+        return self._executor
 
     def _new_executor(self):
         from concurrent.futures import ProcessPoolExecutor
@@ -401,7 +418,7 @@ class LocalPool(Engine):
         from concurrent.futures.process import BrokenProcessPool
 
         try:
-            return self._executor.submit(run_case, runner, case.scene)
+            return self._started().submit(run_case, runner, case.scene)
         except BrokenProcessPool:  # a worker died earlier: start a fresh pool
             self._executor.shutdown(wait=False, cancel_futures=True)
             self._executor = self._new_executor()
@@ -424,6 +441,9 @@ class LocalPool(Engine):
         not written, so nothing partial is left."""
         for future in handles:
             future.cancel()
+        self._starting.join()
+        if self._executor is None:  # its start failed: nothing runs
+            return
         terminate = getattr(self._executor, "terminate_workers", None)  # Python >= 3.14
         if terminate is not None:
             terminate()
@@ -437,7 +457,9 @@ class LocalPool(Engine):
         self._executor.shutdown(wait=True, cancel_futures=True)
 
     def close(self) -> None:
-        self._executor.shutdown(wait=True, cancel_futures=True)
+        self._starting.join()
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=True)
 
 
 CONNECT_SECONDS = 10.0  # a scheduler on a local network answers in milliseconds; 10 s
