@@ -44,11 +44,11 @@ def impact_scene(tmp_path):
     return path
 
 
-def netcdf_contents(path):
+def netcdf_contents(path, naming=("history", "date_created")):
     """Every variable's dims, type, attributes, filters and values, and the global
-    attributes but the two that name the run (history, date_created)."""
+    attributes but those that name the run."""
     with netCDF4.Dataset(path) as nc:
-        attrs = {k: nc.getncattr(k) for k in nc.ncattrs() if k not in ("history", "date_created")}
+        attrs = {k: nc.getncattr(k) for k in nc.ncattrs() if k not in naming}
         variables = {}
         for name, var in nc.variables.items():
             var.set_auto_mask(False)
@@ -62,9 +62,9 @@ def netcdf_contents(path):
     return attrs, variables
 
 
-def assert_same_file(a, b):
-    attrs_a, vars_a = netcdf_contents(a)
-    attrs_b, vars_b = netcdf_contents(b)
+def assert_same_file(a, b, naming=("history", "date_created")):
+    attrs_a, vars_a = netcdf_contents(a, naming)
+    attrs_b, vars_b = netcdf_contents(b, naming)
     assert attrs_a.keys() == attrs_b.keys()
     for key, value in attrs_a.items():
         np.testing.assert_array_equal(value, attrs_b[key], err_msg=key)
@@ -247,3 +247,27 @@ def test_a_really_full_disk_while_streaming_is_one_line(tmp_path):
     stdout, stderr = run_on_a_small_disk(tmp_path, argv, "256k")
     assert stdout.split() == ["status=2"], stdout  # nothing left in full/
     assert stderr == "hertzsweep: error: full/x.nc: No space left on device\n"
+
+
+def test_rerun_of_a_streamed_trace_streams_the_same_file(tmp_path, capsys, monkeypatch):
+    # rerun reads only the input's attributes and streams the record again: the same
+    # data and attributes bit for bit (but those naming the run and its scene's source)
+    scene = impact_scene(tmp_path)
+    monkeypatch.setattr(checks, "STREAM_RECORD_BYTES", 0)
+    monkeypatch.setattr(trace, "CHUNK_SAMPLES", 3 * 64)
+    first, again = tmp_path / "first.nc", tmp_path / "again.nc"
+    argv = ["trace", scene, "-w", "0.85", "--periods", "7", "--samples-per-period", "64"]
+    code, _, err = run_cli([*argv, "-q", "-o", first], capsys)
+    assert code == 0, err
+    streamed = []
+    real_open = dataset.RecordStream.open
+
+    def counting_open(self, *args):
+        streamed.append(args)
+        real_open(self, *args)
+
+    monkeypatch.setattr(dataset.RecordStream, "open", counting_open)
+    code, out, err = run_cli(["rerun", first, "-q", "-o", again], capsys)
+    assert code == 0, err
+    assert len(streamed) == 1 and streamed[0][:3] == (2, 7 * 64, 3 * 64)
+    assert_same_file(first, again, naming=("history", "date_created", "scene_file"))

@@ -88,6 +88,30 @@ def read_dataset(path: str | os.PathLike) -> xr.Dataset:
         raise HertzsweepError(f"{path}: cannot read it as netCDF ({reason})") from None
 
 
+def read_attributes(path: str | os.PathLike) -> Attributes:
+    """The global attributes of a netCDF file, its variables left unread (netCDF4
+    directly: a command that needs only a dataset's record of how it was made loads
+    neither its data nor xarray); the same errors as :func:`read_dataset`."""
+    import netCDF4
+
+    try:
+        with netCDF4.Dataset(os.fspath(path)) as nc:
+            return Attributes({key: nc.getncattr(key) for key in nc.ncattrs()})
+    except FileNotFoundError:
+        raise
+    except (OSError, ValueError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise HertzsweepError(f"{path}: cannot read it as netCDF ({reason})") from None
+
+
+class Attributes:
+    """A dataset's global attributes alone, as ``.attrs`` (what :func:`read_attributes`
+    gives to the readers of attributes: :func:`hertzsweep.output.kinds.kind_of`)."""
+
+    def __init__(self, attrs: dict[str, Any]) -> None:
+        self.attrs = attrs
+
+
 def claim_output(
     output: str, inputs: Iterable[str | os.PathLike] = (), folders: Iterable[str] = ()
 ) -> None:

@@ -47,7 +47,7 @@ def rerun_command(
     """Run again the command that made IN.nc (sweep, trace, branch, study, accuracy) from
     its config_json and command_json, with --set overrides applied; OUT.nc is a dataset of
     the same kind (without overrides, the same data bit for bit)."""
-    ds = options.read_dataset(input_file)
+    ds = options.read_attributes(input_file)  # its record of how it was made: no data
     options.claim_output(output, (input_file,))
     try:
         kind = kind_of(ds)
@@ -64,6 +64,11 @@ def rerun_command(
         _rerun_study(kind, config, overrides, source, output, workers, quiet)
         return
     scene = scene_of(config, overrides, source)
+    if kind.name == "trace" and _trace_streams(scene, command):
+        options.write_streamed(
+            kind, scene, output, lambda sink: run(kind, scene, command, not quiet, sink)
+        )
+        return
     result = run(kind, scene, command, not quiet)
     options.write_result(kind, result, scene, output)
 
@@ -124,7 +129,16 @@ def _rerun_sweep(kind: Kind, scene, command: dict[str, Any], bar: bool) -> Any:
         return kind.run(scene, progress)
 
 
-def _rerun_trace(kind: Kind, scene, command: dict[str, Any], bar: bool) -> Any:
+def _trace_streams(scene, command: dict[str, Any]) -> bool:
+    """Whether the trace's record streams to its file (:func:`~hertzsweep.core.checks.
+    check_record`, which also refuses a record beyond the budgets, as ``trace`` does)."""
+    from ..core.checks import check_record
+
+    arguments = (int(command["periods"]), command.get("samples_per_period"))
+    return check_record(scene, *arguments, source="rerun")
+
+
+def _rerun_trace(kind: Kind, scene, command: dict[str, Any], bar: bool, sink=None) -> Any:
     from ..drivers.trace import trace_count
 
     w = float(command["frequency_ratio"])
@@ -135,7 +149,7 @@ def _rerun_trace(kind: Kind, scene, command: dict[str, Any], bar: bool) -> Any:
         "samples_per_period": command.get("samples_per_period"),
     }
     with progress_bar(trace_count(scene, w, branch), "trace", bar) as progress:
-        return kind.run(scene, w, progress=progress, **arguments)
+        return kind.run(scene, w, progress=progress, sink=sink, **arguments)
 
 
 def _rerun_branch(kind: Kind, scene, command: dict[str, Any], bar: bool) -> Any:
