@@ -271,3 +271,46 @@ def test_rerun_of_a_streamed_trace_streams_the_same_file(tmp_path, capsys, monke
     assert code == 0, err
     assert len(streamed) == 1 and streamed[0][:3] == (2, 7 * 64, 3 * 64)
     assert_same_file(first, again, naming=("history", "date_created", "scene_file"))
+
+
+def test_a_streamed_file_is_on_the_disk_before_it_is_renamed(tmp_path, capsys, monkeypatch):
+    # the streamed temporary is flushed (fsync) after its last write and before the
+    # rename onto the output, as the held file's write is: complete or absent
+    events = []
+    real_fsync, real_replace = os.fsync, os.replace
+
+    def fsync(fd):
+        events.append(("fsync", os.readlink(f"/proc/self/fd/{fd}")))
+        return real_fsync(fd)
+
+    def replace(src, dst, **kwargs):
+        events.append(("replace", os.fspath(src)))
+        return real_replace(src, dst, **kwargs)
+
+    monkeypatch.setattr(checks, "STREAM_RECORD_BYTES", 0)
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", replace)
+    out = tmp_path / "x.nc"
+    code, _, err = run_cli(["trace", _scene_file(tmp_path), "-w", "0.98", "-o", out, "-q"], capsys)
+    assert code == 0, err
+    renamed = [i for i, (what, _) in enumerate(events) if what == "replace"]
+    assert len(renamed) == 1, events
+    temporary = events[renamed[0]][1]
+    assert ("fsync", temporary) in events[: renamed[0]], events
+
+
+def test_no_prediction_where_the_monodromy_jumps():
+    # contact damping n = 0: the coefficient jumps where the contact opens; elsewhere the
+    # monodromy is continuous and the walk predicts Newton's last iterate
+    from hertzsweep.drivers.oscillator import Oscillator
+    from hertzsweep.drivers.shooting import continuous_monodromy
+
+    from .conftest import make_scene
+
+    def oscillator(law, exponent):
+        scene = make_scene(damping={"ratio": 0.01, "law": law, "exponent": exponent})
+        return Oscillator(scene, 0.01)
+
+    assert not continuous_monodromy(oscillator("contact", 0.0))
+    assert continuous_monodromy(oscillator("contact", 0.5))
+    assert continuous_monodromy(oscillator("viscous", 1.5))

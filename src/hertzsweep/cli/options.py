@@ -89,14 +89,14 @@ def read_dataset(path: str | os.PathLike) -> xr.Dataset:
 
 
 def read_attributes(path: str | os.PathLike) -> Attributes:
-    """The global attributes of a netCDF file, its variables left unread (netCDF4
-    directly: a command that needs only a dataset's record of how it was made loads
-    neither its data nor xarray); the same errors as :func:`read_dataset`."""
-    import netCDF4
+    """The global attributes of a netCDF file, its variables left unread
+    (:func:`hertzsweep.output.dataset.read_attributes`: a command that needs only a
+    dataset's record of how it was made loads neither its data nor xarray); the same
+    errors as :func:`read_dataset`."""
+    from ..output.dataset import read_attributes as read
 
     try:
-        with netCDF4.Dataset(os.fspath(path)) as nc:
-            return Attributes({key: nc.getncattr(key) for key in nc.ncattrs()})
+        return Attributes(read(path))
     except FileNotFoundError:
         raise
     except (OSError, ValueError) as exc:

@@ -110,7 +110,7 @@ def study_command(
     try:
         _run(study, cases, output, engine, resume, quiet)
     except BaseException:  # a bad study file, a failed case, a signal: no worker is needed
-        engine.stop(())  # any more, and one still starting is not waited for
+        engine.stop(())  # any more: the pool ends its workers once its start is done
         raise
     finally:
         engine.close()

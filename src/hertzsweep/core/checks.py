@@ -416,8 +416,8 @@ def load_checked_scene(path: str | Path, overrides: Iterable[str] = ()) -> tuple
 
 
 # --------------------------------------------------------------------------- trace
-STREAM_RECORD_BYTES = 2**24  # a trace record beyond 16 MiB (about 8000 periods x 256
-# samples of one sigma) is streamed to its file as it is integrated instead of held: the
+STREAM_RECORD_BYTES = 2**24  # a trace record beyond 16 MiB (2048 periods x 256 samples
+# of one sigma) is streamed to its file as it is integrated instead of held: the
 # in-memory file image and the writer's copies would cost several times the record
 
 
@@ -434,13 +434,14 @@ def record_bytes(scene: Scene, samples: int) -> int:
     flags (1 byte) and the writer's contiguous copy of one column (1 float) per sigma
     and sample; the time coordinates (2 floats), the spectrum's transform buffer (1
     float) and, per sigma, the spectrum (half a float) per sample. Streamed
-    (:func:`streams_record`): per sample only one sigma's N/F_s and the transform buffer
-    (2 floats) and, per sigma, the spectrum; per sigma and sample, the in-file record
-    costs no memory.
+    (:func:`streams_record`): per sample only one sigma's N/F_s in the transform's input
+    (1 float), the spectrum's orders and frequencies (1 float), the writer's buffers (1
+    float) and, per sigma, the spectrum; per sigma and sample, the in-file record costs
+    no memory (measured: 17.9 bytes per sample and sigma with 2 sigma, README).
     """
     sigma = len(scene.excitation.sigma)
     if streams_record(scene, samples):
-        per_sample = 2 * FLOAT + sigma * (FLOAT // 2)
+        per_sample = 3 * FLOAT + sigma * (FLOAT // 2)
     else:
         per_sample = sigma * (4 * FLOAT + 1 + FLOAT + FLOAT // 2) + 3 * FLOAT
     return samples * per_sample + sigma * FLOAT

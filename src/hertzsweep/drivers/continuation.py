@@ -674,7 +674,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
         contact_loss_fraction=stack("contact_loss_fraction"),
         flight_tau=stack("flight_tau"),
         multipliers=multipliers,
-        stable=np.max(np.abs(multipliers), axis=1) < 1.0 - STABILITY_MARGIN,  # as Orbit.stable
+        stable=np.max(np.abs(multipliers), axis=1) < 1.0 - STABILITY_MARGIN,
         arclength=np.array([p.arclength for p, _ in ordered]),
         bifurcations=bifurcations,
         complete=state.end == "end",

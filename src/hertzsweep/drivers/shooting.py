@@ -48,7 +48,8 @@ TRANSIENT_TOLERANCE = 1e-3  # |x(T) - x(0)|_inf / Q below which a transient is c
 # its attractor to polish by Newton (Newton's basin around a stable orbit is far wider)
 PREDICT_RESIDUAL = 1e-6  # a sweep's walk takes Newton's next iterate from a residual this
 # small (quadratic convergence: about 1e-12, below NEWTON_TOLERANCE) without evaluating
-# it, reads its period instead, and checks there that it repeats (else Newton goes on)
+# it, reads its period instead, and checks there that it repeats (else Newton runs again
+# unpredicted); not where the monodromy jumps (continuous_monodromy)
 STABILITY_MARGIN = 1e-9  # |multiplier| below 1 - this counts as stable (round-off of M)
 
 
@@ -300,6 +301,15 @@ def shooting_dwell(
     return state, reading, orbit.stable
 
 
+def continuous_monodromy(oscillator: Oscillator) -> bool:
+    """Whether the monodromy matrix is continuous in the state: not with contact damping
+    of exponent 0, whose coefficient jumps where the contact opens (by about c h across a
+    grazing step). A predicted Newton iterate's stability is judged at the iterate before
+    it, which only a continuous monodromy allows (:data:`PREDICT_RESIDUAL`)."""
+    damping = oscillator.scene.damping
+    return not (damping.law == "contact" and float(damping.exponent) == 0.0)
+
+
 def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray):
     """Shooting dwells over a sequence of frequencies (a sweep), as :func:`shooting_dwell`
     at each, in one compiled loop (:func:`hertzsweep.kernels.tangent.shooting_walk`):
@@ -312,7 +322,8 @@ def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray)
     n = oscillator.steps_per_period
     steps = np.array([oscillator.step(w) for w in frequencies])
     period = PeriodMap(oscillator)
-    settings = newton_settings(period, monotone=True, predict=PREDICT_RESIDUAL)
+    predict = PREDICT_RESIDUAL if continuous_monodromy(oscillator) else 0.0
+    settings = newton_settings(period, monotone=True, predict=predict)
     settling = transient(period, oscillator.scene.sweep.max_settle_periods)
     buffers = new_readout(oscillator.harmonics.size, steps.size)
     x = np.array([state.q_prev, state.q, state.h])

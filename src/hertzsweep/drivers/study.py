@@ -28,6 +28,7 @@ finished case to a callable ``on_case(case, outcome)`` of the caller's, which ke
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import itertools
@@ -392,10 +393,12 @@ class LocalPool(Engine):
     def _start(self) -> None:
         try:
             self._executor = self._new_executor()
-            for _ in range(self.slots):
-                self._executor.submit(os.getpid)
         except BaseException as exc:  # re-raised where the pool is first used
             self._start_error = exc
+            return
+        with contextlib.suppress(Exception):  # a warm-up only: a broken pool is met,
+            for _ in range(self.slots):  # and replaced, by the first case's submit
+                self._executor.submit(os.getpid)
 
     def _started(self):
         """The executor, once the background start is done (its error, if it failed)."""

@@ -443,8 +443,10 @@ def _dwell_orbit(state, law, drive, settings, transient, monodromy, one):
     )
     q_prev, q = np.array([x0]), np.array([x1])
     if outcome == PREDICTED and largest_multiplier(monodromy) < 1.0 - PREDICTED_MARGIN:
-        measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
+        status, _ = measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
         periods += CONVERGED_PERIODS
+        if status != OK:  # a stop request (or a blow-up Newton would have met)
+            return state[0], state[1], periods, LOST
         if _repeats(x0, x1, q_prev[0], q[0], settings):  # converged, as evaluated
             return q_prev[0], q[0], periods, READ
     if outcome == PREDICTED:  # not the orbit yet, or a fold near
@@ -462,7 +464,9 @@ def _dwell_orbit(state, law, drive, settings, transient, monodromy, one):
         if not stable:
             return x0, x1, periods, UNSETTLED
     q_prev[0], q[0] = x0, x1
-    measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
+    status, _ = measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
+    if status != OK:
+        return state[0], state[1], periods + CONVERGED_PERIODS, LOST
     return q_prev[0], q[0], periods + CONVERGED_PERIODS, READ
 
 

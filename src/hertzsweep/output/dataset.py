@@ -687,10 +687,11 @@ def write_atomic(ds: Frame | xr.Dataset, path: str | os.PathLike) -> Path:
 
 COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}  # float arrays: about 2x smaller
 MEMORY_START = 1 << 16  # [bytes] first size of the in-memory file (it grows as needed)
-SLAB_BYTES = 1 << 21  # [bytes] a compressed variable larger than this (a long trace's
-# spectrum) is stored in HDF5 chunks of this size along its last axis (one index of the
-# others), written chunk by chunk with a cache of one: what netCDF4 and HDF5 copy and
-# cache stays this small instead of the variable's size (smaller ones: netCDF's defaults)
+SLAB_BYTES = 1 << 21  # [bytes] a compressed variable whose last axis is longer than this
+# (a long trace's spectrum) is stored in HDF5 chunks of this size along it (one index of
+# the others), written chunk by chunk with a cache of one: what netCDF4 and HDF5 copy and
+# cache stays this small instead of the variable's size. Others (a sweep's, a study's:
+# short last axes) keep netCDF's default chunks and are written whole.
 
 
 def write_netcdf(ds: Frame | xr.Dataset, path: str | os.PathLike) -> None:
@@ -812,9 +813,10 @@ def _write_variable(
         values = None
     else:
         options = _storage(kind, is_coordinate, values.size)
-        if "zlib" in options and values.nbytes > SLAB_BYTES:  # long: in slabs, below
-            width = max(1, SLAB_BYTES // values.dtype.itemsize)
-            options["chunksizes"] = (1,) * (values.ndim - 1) + (min(width, values.shape[-1]),)
+        slab = SLAB_BYTES // values.dtype.itemsize
+        if "zlib" in options and values.ndim and values.shape[-1] > slab:  # in slabs, below
+            width = slab
+            options["chunksizes"] = (1,) * (values.ndim - 1) + (width,)
         variable = nc.createVariable(name, dtype, dims, **options)
         if "chunksizes" in options:
             variable.set_var_chunk_cache(size=SLAB_BYTES, nelems=1)
@@ -863,11 +865,12 @@ class RecordStream:
     (:func:`trace_dataset` of the result) and closes it.
 
     For records too large to hold (:func:`hertzsweep.core.checks.streams_record`); the
-    file is the one :func:`write_netcdf` writes (the same variables, attributes and
-    values). Used inside :func:`~.paths.atomic_path`, so the output
-    is complete or absent. The netCDF library reports a failed write as "HDF error":
-    it becomes the OS's ``OSError`` (no space left, when the disk's free space is below
-    a chunk; else an I/O error quoting the library).
+    file holds what :func:`write_netcdf` writes (the same variables, attributes and
+    values; the record's variables first, in HDF5 chunks of one recorded chunk). Used
+    inside :func:`~.paths.atomic_path`, and flushed to the disk before it renames, so
+    the output is complete or absent. The netCDF library reports a failed write as "HDF
+    error": it becomes the OS's ``OSError`` (no space left, when the disk's free space is
+    below :data:`WRITE_MARGIN`; else an I/O error quoting the library).
     """
 
     def __init__(self, path: str | os.PathLike, omega: float) -> None:
@@ -919,11 +922,17 @@ class RecordStream:
                 self.nc[name][s, span] = rows[:, c].astype(dtype, copy=False)
 
     def finish(self, ds: Frame) -> None:
-        """The rest of the dataset (its streamed variables get their attributes), closed."""
+        """The rest of the dataset (its streamed variables get their attributes), closed
+        and flushed to the disk."""
         with self._writing():
             _fill(self.nc, ds)
             nc, self.nc = self.nc, None
             nc.close()
+        fd = os.open(self.path, os.O_RDONLY)  # on the disk before atomic_path renames it
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
     @contextlib.contextmanager
     def _writing(self) -> Any:
@@ -972,6 +981,15 @@ def open_dataset(path: str | os.PathLike) -> xr.Dataset:
     xr = load_xarray()
     with xr.open_dataset(path, engine="netcdf4") as ds:
         return ds.load()
+
+
+def read_attributes(path: str | os.PathLike) -> dict[str, Any]:
+    """The global attributes of a netCDF file, its variables left unread (netCDF4 directly:
+    neither the data nor xarray is loaded)."""
+    import netCDF4
+
+    with netCDF4.Dataset(os.fspath(path)) as nc:
+        return {key: nc.getncattr(key) for key in nc.ncattrs()}
 
 
 def merge_attributes(ds: Frame | xr.Dataset, extra: Mapping[str, Any]) -> Frame | xr.Dataset:
