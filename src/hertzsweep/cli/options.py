@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable
+from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
 import click
@@ -79,37 +80,28 @@ def read_dataset(path: str | os.PathLike) -> xr.Dataset:
     """
     from ..output.dataset import open_dataset
 
-    try:
-        return open_dataset(path)
-    except FileNotFoundError:
-        raise
-    except (OSError, ValueError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise HertzsweepError(f"{path}: cannot read it as netCDF ({reason})") from None
+    return _read(open_dataset, path)
 
 
-def read_attributes(path: str | os.PathLike) -> Attributes:
-    """The global attributes of a netCDF file, its variables left unread
+def read_attributes(path: str | os.PathLike) -> SimpleNamespace:
+    """The global attributes of a netCDF file as ``.attrs``, its variables left unread
     (:func:`hertzsweep.output.dataset.read_attributes`: a command that needs only a
     dataset's record of how it was made loads neither its data nor xarray); the same
     errors as :func:`read_dataset`."""
-    from ..output.dataset import read_attributes as read
+    from ..output.dataset import read_attributes as attributes
 
+    return SimpleNamespace(attrs=_read(attributes, path))
+
+
+def _read(reader: Callable[[Any], Any], path: str | os.PathLike) -> Any:
+    """``reader(path)``, a file that is not netCDF as one HertzsweepError naming it."""
     try:
-        return Attributes(read(path))
+        return reader(path)
     except FileNotFoundError:
         raise
     except (OSError, ValueError) as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise HertzsweepError(f"{path}: cannot read it as netCDF ({reason})") from None
-
-
-class Attributes:
-    """A dataset's global attributes alone, as ``.attrs`` (what :func:`read_attributes`
-    gives to the readers of attributes: :func:`hertzsweep.output.kinds.kind_of`)."""
-
-    def __init__(self, attrs: dict[str, Any]) -> None:
-        self.attrs = attrs
 
 
 def claim_output(

@@ -228,7 +228,8 @@ class FlightLog:
     def __init__(self, dt: float) -> None:
         self.dt = dt
         self.pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-        self.open: tuple[float, int] | None = None  # (start, complete) of a flight running on
+        self.open: tuple[float, bool] | None = None  # (start, cut by the record's start)
+        # of a flight running on into the next chunk
 
     def add(self, window: np.ndarray, first: int, last: bool) -> None:
         """``window`` = samples ``first ..`` of the record: a chunk, after the first one
@@ -278,11 +279,12 @@ class _Recorder:
         self.periods = analyser.samples // per_period
         self.stride = stride
         self.chunk = chunk_periods(per_period)
+        self.chunk_samples = min(self.chunk, self.periods) * per_period  # the longest chunk
         self.record = self.force = None
         if sink is None:
             self.record = np.empty((sigma, analyser.samples, RECORD_COLUMNS))
         else:  # N/F_s straight into the transform's input: no copy of the record's length
-            self.buffer = np.empty((min(self.chunk, self.periods) * per_period + 1, RECORD_COLUMNS))
+            self.buffer = np.empty((self.chunk_samples + 1, RECORD_COLUMNS))
             self.force = analyser.buffer()
 
     def run(
@@ -295,10 +297,10 @@ class _Recorder:
         for p in range(0, self.periods, self.chunk):
             count = min(self.chunk, self.periods - p)
             first = p * self.per_period
-            rows, window = self._rows(s, first, count * self.per_period)
+            lead = 1 if first > 0 else 0  # the sample before the chunk, after the first
+            rows, window = self._rows(s, first, count * self.per_period, lead)
             state, part = oscillator.measure_block(state, frequency_ratio, count, rows, self.stride)
             block = part if block is None else block.then(part)
-            lead = window.shape[0] - rows.shape[0]  # the sample before the chunk, or none
             flights.add(window, first - lead, last=p + count == self.periods)
             if self.sink is not None:
                 self.sink.write(s, first, rows)
@@ -306,10 +308,9 @@ class _Recorder:
                 self.buffer[0] = rows[-1]
         return state, block.at(0), flights
 
-    def _rows(self, s: int, first: int, count: int) -> tuple[np.ndarray, np.ndarray]:
+    def _rows(self, s: int, first: int, count: int, lead: int) -> tuple[np.ndarray, np.ndarray]:
         """Where the kernel writes samples ``first .. first + count`` of sigma ``s``, and
-        those rows preceded by the sample before them (after the first chunk)."""
-        lead = 1 if first > 0 else 0
+        those rows preceded by the ``lead`` (0 or 1) samples before them."""
         if self.record is not None:
             return (
                 self.record[s, first : first + count],
@@ -385,8 +386,7 @@ def run_trace(
     analyser = AmplitudeSpectrum(samples)
     recorder = _Recorder(sink, sigma.size, analyser, samples_per_period, stride)
     if sink is not None:
-        chunk = min(recorder.chunk, periods) * samples_per_period
-        sink.open(sigma.size, samples, chunk, sample_step)
+        sink.open(sigma.size, samples, recorder.chunk_samples, sample_step)
     spectrum = np.empty((sigma.size, analyser.bins))
     amplitude = np.empty((sigma.size, harmonics.size))
     phase = np.empty_like(amplitude)

@@ -395,13 +395,25 @@ def shooting_walk(state, steps, law, drive, settings, readout, start, transient)
         np.zeros((0, 4, 1)),
         0,
     )
-    monodromy = np.zeros((2, 2))
+    unpredicted = NewtonSettings(
+        settings.scale,
+        settings.basis,
+        settings.tolerance,
+        settings.max_iterations,
+        settings.monotone,
+        settings.margin,
+        0.0,
+    )
+    # the buffers every dwell reuses: residuals, M, the state read, the reading
+    work = (np.empty(settings.max_iterations + 1), np.zeros((2, 2)), np.empty(2), one)
     periods = 0
     for i in range(start, steps.shape[0]):
         if steps[i] != state[2]:
             state[0] = restart(state[0], state[1], state[2], steps[i], law, drive)
             state[2] = steps[i]
-        a, q, count, found = _dwell_orbit(state, law, drive, settings, transient, monodromy, one)
+        a, q, count, found = _dwell_orbit(
+            state, law, drive, (settings, unpredicted), transient, work
+        )
         periods += count
         if found == LOST:
             return i, periods, False
@@ -413,7 +425,7 @@ def shooting_walk(state, steps, law, drive, settings, readout, start, transient)
 
 
 @njit(cache=CACHE, error_model="numpy", nogil=True)
-def _dwell_orbit(state, law, drive, settings, transient, monodromy, one):
+def _dwell_orbit(state, law, drive, solvers, transient, work):
     """One dwell of :func:`shooting_walk`, as ``drivers.shooting.shooting_dwell``: Newton
     (monotone) from the retuned ``state``; where it fails or lands on an unstable orbit (a
     fold was passed), the transient to the new attractor, polished (:func:`settle`).
@@ -425,23 +437,19 @@ def _dwell_orbit(state, law, drive, settings, transient, monodromy, one):
     the start without prediction: every dwell gets the iterates, the orbit and the
     stability verdict of Newton without prediction, bit for bit.
 
+    ``solvers = (settings, unpredicted)``: Newton's settings with and without
+    ``predict``; ``work = (residuals, monodromy, pair, one)``: the walk's buffers.
+
     Returns ``(a, q, periods, found)``: the state after the period read (:data:`READ`),
     where the transient stopped (:data:`UNSETTLED`), or nothing (:data:`LOST`).
     """
-    unpredicted = NewtonSettings(
-        settings.scale,
-        settings.basis,
-        settings.tolerance,
-        settings.max_iterations,
-        settings.monotone,
-        settings.margin,
-        0.0,
-    )
-    residuals = np.empty(settings.max_iterations + 1)
+    settings, unpredicted = solvers
+    residuals, monodromy, pair, one = work
     x0, x1, periods, outcome = newton(
         state[0], state[1], state[2], law, drive, settings, residuals, monodromy
     )
-    q_prev, q = np.array([x0]), np.array([x1])
+    pair[0], pair[1] = x0, x1
+    q_prev, q = pair[0:1], pair[1:2]
     if outcome == PREDICTED and largest_multiplier(monodromy) < 1.0 - PREDICTED_MARGIN:
         status, _ = measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
         periods += CONVERGED_PERIODS

@@ -45,7 +45,7 @@ from ..core.config import Scene
 from ..core.rig import RigConstants, derive
 from ..drivers.readings import HARMONIC_FIELDS, SCALAR_FIELDS
 from .frame import Frame, Variable, load_xarray
-from .paths import atomic_path, write_file
+from .paths import atomic_path, sync_path, write_file
 
 if TYPE_CHECKING:  # the results' types only: building a dataset runs no driver
     import xarray as xr
@@ -928,11 +928,7 @@ class RecordStream:
             _fill(self.nc, ds)
             nc, self.nc = self.nc, None
             nc.close()
-        fd = os.open(self.path, os.O_RDONLY)  # on the disk before atomic_path renames it
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+        sync_path(self.path)  # on the disk before atomic_path renames it
 
     @contextlib.contextmanager
     def _writing(self) -> Any:

@@ -367,14 +367,26 @@ def _discard(tmp: Path) -> None:
         tmp.unlink(missing_ok=True)
 
 
+def sync_path(path: str | os.PathLike) -> None:
+    """Flush a file (or a folder's entries) to the disk: what was written to it by a
+    library that does not (netCDF4's own files) before :func:`atomic_path` renames it.
+
+    Raises
+    ------
+    OSError
+        The error of the OS.
+    """
+    fd = os.open(path, os.O_RDONLY | os.O_CLOEXEC)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def _sync_folder(folder: Path) -> None:
     """Flush the rename to the disk (best effort: not every file system can)."""
     with contextlib.suppress(OSError):
-        fd = os.open(folder, os.O_RDONLY | os.O_CLOEXEC)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+        sync_path(folder)
 
 
 def _naming(exc: OSError, path: Path) -> OSError:
@@ -393,6 +405,7 @@ __all__ = [
     "lock_path",
     "remove_stale_temporaries",
     "stale_temporaries",
+    "sync_path",
     "temporary_name",
     "write_file",
 ]
