@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import KW_ONLY, dataclass, field, fields, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -117,23 +117,18 @@ SETTLED_TOLERANCE = 1e-7  # one-period mismatch / Q taken as steady without Newt
 
 # --------------------------------------------------------------------------- measurements
 @dataclass(frozen=True)
-class SweepMeasurements:
-    """Stepped-sine readings, one value per measured point (arrays of one length M).
+class MeasuredPoints:
+    """What every kind of measurements holds: where each value was measured (arrays of
+    one length M) and where the values come from.
 
     Attributes
     ----------
     direction : str[M]
-        ``"up"`` or ``"down"``: the order the sweep visited its frequencies.
+        ``"up"`` or ``"down"``: the direction of the sweep that measured the value.
     sigma : float[M]
         [1] input level F/F_s.
     frequency : float[M]
         [Hz], or [1] frequency ratios w when ``in_hertz`` is false.
-    harmonic : int[M]
-        Order k of the reading.
-    amplitude : float[M]
-        [1] peak amplitude A_k of N/F_s.
-    phase : float[M]
-        [degree] phase lag phi_k in [0, 360) (SPEC convention); NaN: not measured.
     in_hertz : bool
         ``frequency`` is in Hz (f0 can be identified) or is the ratio w.
     source : str
@@ -145,12 +140,31 @@ class SweepMeasurements:
     direction: np.ndarray
     sigma: np.ndarray
     frequency: np.ndarray
-    harmonic: np.ndarray
-    amplitude: np.ndarray
-    phase: np.ndarray
+    _: KW_ONLY
     in_hertz: bool = True
     source: str = "<measurements>"
     reference: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class SweepMeasurements(MeasuredPoints):
+    """Stepped-sine readings, one value per measured point, at the frequencies the sweep
+    visited (``direction``: the order it visited them in).
+
+    Attributes
+    ----------
+    harmonic : int[M]
+        Order k of the reading.
+    amplitude : float[M]
+        [1] peak amplitude A_k of N/F_s.
+    phase : float[M]
+        [degree] phase lag phi_k in [0, 360) (SPEC convention); NaN: not measured.
+    direction, sigma, frequency, in_hertz, source, reference : as :class:`MeasuredPoints`.
+    """
+
+    harmonic: np.ndarray
+    amplitude: np.ndarray
+    phase: np.ndarray
 
     kind = "sweep"
 
@@ -162,27 +176,11 @@ class SweepMeasurements:
 
 
 @dataclass(frozen=True)
-class JumpMeasurements:
-    """Jump frequencies, one per (direction, sigma) (arrays of one length J).
-
-    Attributes
-    ----------
-    direction : str[J]
-        ``"down"``: where a down sweep fell off the resonant branch; ``"up"``: where an
-        up sweep jumped onto it.
-    sigma : float[J]
-        [1] input level F/F_s.
-    frequency : float[J]
-        [Hz], or [1] frequency ratios when ``in_hertz`` is false.
-    in_hertz, source, reference : as :class:`SweepMeasurements`.
+class JumpMeasurements(MeasuredPoints):
+    """Jump frequencies, one per (direction, sigma): ``"down"``, where a down sweep fell
+    off the resonant branch; ``"up"``, where an up sweep jumped onto it. The attributes
+    are those of :class:`MeasuredPoints`.
     """
-
-    direction: np.ndarray
-    sigma: np.ndarray
-    frequency: np.ndarray
-    in_hertz: bool = True
-    source: str = "<measurements>"
-    reference: np.ndarray | None = None
 
     kind = "jumps"
 
@@ -923,6 +921,7 @@ __all__ = [
     "LAW_EXPONENTS",
     "LawFit",
     "METHODS",
+    "MeasuredPoints",
     "Measurements",
     "SweepMeasurements",
     "check_free",
