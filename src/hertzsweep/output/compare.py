@@ -155,9 +155,7 @@ class Rule:
             "units": self.units,
             "rule": self.origin,
         }
-        if self.note:
-            out["note"] = self.note
-        return out
+        return _with_note(out, self.note)
 
 
 @dataclass(frozen=True)
@@ -218,9 +216,7 @@ class VariableResult:
             worst |= {k: _json_value(v) for k, v in asdict(self.worst).items() if k != "coords"}
             worst["tolerance"] = {**self.rule.as_dict(), "allowed": worst.pop("allowed")}
             out["worst"] = worst
-        if self.note:
-            out["note"] = self.note
-        return out
+        return _with_note(out, self.note)
 
 
 @dataclass(frozen=True)
@@ -914,6 +910,11 @@ def _python(value: Any) -> Any:
 def _finite_or_none(value: Any) -> float | None:
     value = float(value)
     return None if math.isnan(value) else value
+
+
+def _with_note(out: dict[str, Any], note: str) -> dict[str, Any]:
+    """A JSON form with ``note`` added last, when there is one."""
+    return {**out, "note": note} if note else out
 
 
 def _json_value(value: Any) -> Any:
