@@ -45,7 +45,6 @@ def progress_bar(
         initial=initial,
         desc=desc,
         unit=unit,
-        file=sys.stderr,
         leave=False,
         smoothing=smoothing,
         bar_format=BAR_FORMAT.replace("UNITS", unit if unit == "%" else f"{unit}s"),
