@@ -574,16 +574,11 @@ class AccuracyReport:
     errors : per rung, against the reference.
     orders : per rung, the observed order p_N along its axis of step halving (NaN where
         N, 2N and 4N are not all on it).
-    pareto : per rung, on the Pareto front of (wall time, error H1).
-    observed_order : p of the finest triple N, 2N, 4N on the steps axis at the scene's
-        settling, steady state and method.
     reference_error : the reference's error estimated by Richardson extrapolation.
-    settle_check, settle_check_label : the reference against the rung at the same N by
-        shooting (its settling error) or, without shooting, with shorter settling (a
-        bound on what settling longer still changes).
+    settle_rung : the index of the rung at the reference's N and method that best
+        isolates the reference's settling error (:attr:`settle_check`), None if none ran.
     scene_setting : the scene's own settings (a rung of the ladder).
-    target, recommended : the ``--target`` and the index of the recommended rung: the
-        fastest (wall time) whose H1 error meets the target.
+    target : the ``--target``: the H1 error to recommend the fastest setting for.
     target_margin : the reference's estimated H1 error added to each rung's error when
         checking it against the target.
     notes : what was skipped or failed, and why.
@@ -592,14 +587,10 @@ class AccuracyReport:
     rungs: list[Rung]
     errors: list[Errors]
     orders: list[float]
-    pareto: np.ndarray
-    observed_order: float
     reference_error: Errors | None
-    settle_check: Errors | None
-    settle_check_label: str
+    settle_rung: int | None
     scene_setting: Setting
     target: float | None = None
-    recommended: int | None = None
     target_margin: float = 0.0
     notes: list[str] = field(default_factory=list)
 
@@ -612,6 +603,38 @@ class AccuracyReport:
         """The order p of the reference's Richardson estimate: its method's."""
         return RICHARDSON_ORDER[self.reference.setting.method]
 
+    @property
+    def observed_order(self) -> float:
+        """p of the finest triple N, 2N, 4N on the steps axis at the scene's settling,
+        steady state and method."""
+        return _finest_order(self.rungs, self.orders, _axis(self.scene_setting))
+
+    @property
+    def pareto(self) -> np.ndarray:
+        """Per rung, on the Pareto front of (wall time, error H1)."""
+        return pareto_front([r.wall_time for r in self.rungs], [e.h1 for e in self.errors])
+
+    @property
+    def recommended(self) -> int | None:
+        """The index of the fastest rung (wall time) whose H1 error, plus the
+        :attr:`target_margin`, meets the target; None without one or a target."""
+        if self.target is None:
+            return None
+        cost = [r.wall_time for r in self.rungs]
+        return recommend(cost, [e.h1 for e in self.errors], self.target, self.target_margin)
+
+    @property
+    def settle_check(self) -> Errors | None:
+        """The reference against the rung at the same N by shooting (its settling error)
+        or, without shooting, with shorter settling (a bound on what settling longer
+        still changes)."""
+        return None if self.settle_rung is None else self.errors[self.settle_rung]
+
+    @property
+    def settle_check_label(self) -> str:
+        """The setting of :attr:`settle_check` ("" without one)."""
+        return "" if self.settle_rung is None else self.rungs[self.settle_rung].setting.label
+
     def index(self, setting: Setting) -> int | None:
         """Index of a setting's rung, None if it did not run."""
         for i, rung in enumerate(self.rungs):
@@ -623,34 +646,26 @@ class AccuracyReport:
 def assess(
     rungs: list[Rung], ladder: Ladder, target: float | None = None, notes: Sequence[str] = ()
 ) -> AccuracyReport:
-    """Errors, orders, Pareto front and recommendation of a run ladder."""
+    """The report of a run ladder: errors against the reference, observed orders, the
+    reference's own error and the margin it adds to the target."""
     reference = rungs[-1]
     if reference.setting != ladder.reference:
         raise HertzsweepError("the reference rung did not run")
-    errors = [sweep_errors(r.result, reference.result) for r in rungs]
-    orders = observed_orders(rungs)  # the reference can be the 4N of a triple
-    observed = _finest_order(rungs, orders, _axis(ladder.scene_setting))
-    method = reference.setting.method
-    base = replace(ladder.scene_setting, steady_state="settle", method=method)
-    reference_order = _finest_order(rungs, orders, _axis(base))
     partner = next((r for r in rungs if r.setting == ladder.partner), None)
-    reference_error = richardson_error(reference, partner) if partner is not None else None
-    settle_check, settle_label = _settle_check(rungs)
-    cost = [r.wall_time for r in rungs]  # a step costs differently per method
-    h1 = [e.h1 for e in errors]
     report = AccuracyReport(
         rungs=rungs,
-        errors=errors,
-        orders=orders,
-        pareto=pareto_front(cost, h1),
-        observed_order=observed,
-        reference_error=reference_error,
-        settle_check=settle_check,
-        settle_check_label=settle_label,
+        errors=[sweep_errors(r.result, reference.result) for r in rungs],
+        orders=observed_orders(rungs),  # the reference can be the 4N of a triple
+        reference_error=richardson_error(reference, partner) if partner is not None else None,
+        settle_rung=_settle_rung(rungs),
         scene_setting=ladder.scene_setting,
         target=target,
         notes=[*ladder.notes, *notes],
     )
+    method = reference.setting.method
+    base = replace(ladder.scene_setting, steady_state="settle", method=method)
+    reference_order = _finest_order(rungs, report.orders, _axis(base))
+    reference_error = report.reference_error
     margin = reference_error.h1 if reference_error is not None else 0.0
     order = report.richardson_order
     low = math.isfinite(reference_order) and reference_order < order - 0.5
@@ -665,8 +680,6 @@ def assess(
             "that estimate"
         )
     report.target_margin = margin
-    if target is not None:
-        report.recommended = recommend(cost, h1, target, margin)
     return report
 
 
@@ -680,22 +693,21 @@ def _finest_order(rungs: list[Rung], orders: list[float], axis: tuple[str, str, 
     return max(on_axis)[1] if on_axis else math.nan
 
 
-def _settle_check(rungs: list[Rung]) -> tuple[Errors | None, str]:
-    """The reference against the rung at its N and method that best isolates its settling
-    error: shooting (no settling error at all) if present, else the longest other
-    settling."""
+def _settle_rung(rungs: list[Rung]) -> int | None:
+    """The index of the rung at the reference's N and method that best isolates its
+    settling error: shooting (no settling error at all) if present, else the longest
+    other settling; None if no other rung ran at that N and method."""
     reference = rungs[-1].setting
     same_n = [
-        r
-        for r in rungs[:-1]
+        i
+        for i, r in enumerate(rungs[:-1])
         if (r.setting.steps_per_period, r.setting.method)
         == (reference.steps_per_period, reference.method)
     ]
     if not same_n:
-        return None, ""
-    shooting = [r for r in same_n if r.setting.steady_state == "shooting"]
-    other = shooting[0] if shooting else max(same_n, key=lambda r: r.cost_steps)
-    return sweep_errors(other.result, rungs[-1].result), other.setting.label
+        return None
+    shooting = [i for i in same_n if rungs[i].setting.steady_state == "shooting"]
+    return shooting[0] if shooting else max(same_n, key=lambda i: rungs[i].cost_steps)
 
 
 def measure_accuracy(

@@ -177,13 +177,14 @@ def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
         f"{'steps':>11s} {'wall ms':>9s} {'order':>5s}  pareto"
     ]
     scene_index = report.index(report.scene_setting)
+    pareto, recommended = report.pareto, report.recommended
     for i, (rung, err) in enumerate(zip(report.rungs, report.errors, strict=True)):
-        mark = "*" if report.pareto[i] else ""
+        mark = "*" if pareto[i] else ""
         if i == len(report.rungs) - 1:
             mark += " reference"
         if i == scene_index:
             mark += " scene"
-        if i == report.recommended:
+        if i == recommended:
             mark += " recommended"
         lines.append(
             f"{rung.setting.label:28s} {_number(err.h1):>9s} {_number(err.h2):>9s} "
@@ -212,9 +213,7 @@ def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
     order = _number(report.observed_order, ".2f")
     lines.append(f"observed order (steps axis, finest triple N, 2N, 4N): {order}")
     front = sorted(
-        (r.wall_time, r.setting.label)
-        for r, on in zip(report.rungs, report.pareto, strict=True)
-        if on
+        (r.wall_time, r.setting.label) for r, on in zip(report.rungs, pareto, strict=True) if on
     )
     lines.append(
         "Pareto front (wall time, err H1), fastest first: " + ", ".join(f[1] for f in front)
@@ -226,11 +225,11 @@ def accuracy_summary(report: AccuracyReport, ds: Any) -> str:
 
 
 def _recommendation(report: AccuracyReport) -> str:
-    target = report.target
-    if report.recommended is None:
+    target, recommended = report.target, report.recommended
+    if recommended is None:
         return f"target {target:g} on H1: no setting of the ladder meets it; refine --steps"
-    rung = report.rungs[report.recommended]
-    err = report.errors[report.recommended]
+    rung = report.rungs[recommended]
+    err = report.errors[recommended]
     text = (
         f"target {target:g} on H1 (max abs error relative to the largest H1, against the "
         f"reference): recommended {rung.setting.label}, error {err.h1:.2e}, "
