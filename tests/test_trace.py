@@ -156,7 +156,7 @@ def test_one_percent_upper_branch_fig7(one_percent):
     assert result.approach[0] == 1.05 and result.approach[-1] == 0.9775
     assert result.settled[0] and result.periodic[0]
     assert result.contact_loss_fraction[0] == 0.0
-    assert np.all(result.record[0, :, 3] == 1.0) and result.flight_complete.size == 0
+    assert np.all(result.record[0, :, 3] == 1.0) and result.flights.complete.size == 0
     assert result.force_max[0] > 2.1
     assert 0.0 < result.force_min[0] < 0.15
     h2_h1 = result.amplitude[0, 1] / result.amplitude[0, 0]
@@ -181,8 +181,8 @@ def test_impacting_fig17(impacting):
     constants = derive(scene.rig)
     w = result.frequency_ratio
     period_tau = 2 * np.pi / w
-    complete = result.flight_complete[0] == 1
-    duration = (result.flight_end[0] - result.flight_start[0])[complete]
+    complete = result.flights.complete[0] == 1
+    duration = (result.flights.end[0] - result.flights.start[0])[complete]
     assert result.settled[0] and result.periodic[0]
     assert complete.sum() >= result.periods - 1  # one flight per period
     assert np.all(duration > 0.5 * period_tau)
@@ -199,7 +199,7 @@ def test_impacting_fig17(impacting):
     # every sample out of contact lies inside a flight, and no sample inside one is in contact
     tau = result.tau
     inside = np.zeros(tau.size, dtype=bool)
-    for start, end in zip(result.flight_start[0], result.flight_end[0], strict=True):
+    for start, end in zip(result.flights.start[0], result.flights.end[0], strict=True):
         inside |= (tau >= start) & (tau < end)
     np.testing.assert_array_equal(inside, result.record[0, :, 3] == 0.0)
 
@@ -223,9 +223,11 @@ def test_decimated_record_is_every_stride_th_step(impacting):
     assert decimated.sample_step == pytest.approx(4 * full.sample_step, rel=1e-15)
     # the flight bounds, interpolated over 4x longer intervals, move by < 1e-3 step
     np.testing.assert_allclose(
-        decimated.flight_start, full.flight_start, atol=1e-3 * full.sample_step
+        decimated.flights.start, full.flights.start, atol=1e-3 * full.sample_step
     )
-    np.testing.assert_allclose(decimated.flight_end, full.flight_end, atol=1e-3 * full.sample_step)
+    np.testing.assert_allclose(
+        decimated.flights.end, full.flights.end, atol=1e-3 * full.sample_step
+    )
 
 
 def test_memory_of_a_long_record():

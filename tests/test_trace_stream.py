@@ -112,8 +112,8 @@ def test_chunked_readings_agree_with_one_block(tmp_path):
         trace.CHUNK_SAMPLES = saved
     np.testing.assert_allclose(chunked.amplitude, whole.amplitude, rtol=1e-11)
     np.testing.assert_allclose(chunked.record, whole.record, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(chunked.flight_start, whole.flight_start, rtol=1e-12)
-    np.testing.assert_array_equal(chunked.flight_complete, whole.flight_complete)
+    np.testing.assert_allclose(chunked.flights.start, whole.flights.start, rtol=1e-12)
+    np.testing.assert_array_equal(chunked.flights.complete, whole.flights.complete)
     for name in ("mean_force", "force_max", "force_min", "contact_loss_fraction"):
         np.testing.assert_allclose(getattr(chunked, name), getattr(whole, name), rtol=1e-12)
 

@@ -17,7 +17,7 @@ lock-in, every ``stride``-th step (``stride = steps_per_period / samples_per_per
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -41,6 +41,42 @@ GRID_MATCH = 1e-9  # grid frequencies within this of W count as W (the grid is r
 # to 1e-12; a user's --frequency 0.975 must not dwell at a grid point 0.975 + 1e-13 first)
 
 
+@dataclass(frozen=True)
+class Flights:
+    """The flights of every sigma's record, padded to the most flights F of one record.
+
+    Attributes
+    ----------
+    start, end : float[S, F]
+        Every flight's bounds in tau, NaN padded.
+    complete : int8[S, F]
+        1 for a flight inside the record, 0 for one cut by its start or end, -1 pad.
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    complete: np.ndarray
+
+    @classmethod
+    def padded(cls, intervals: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> Flights:
+        """One row per record from its flights' ``start, end, complete``
+        (:meth:`FlightLog.intervals`)."""
+        shape = (len(intervals), max((start.size for start, _, _ in intervals), default=0))
+        flights = cls(
+            np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, -1, dtype=np.int8)
+        )
+        columns = (flights.start, flights.end, flights.complete)
+        for s, row in enumerate(intervals):
+            for padded, values in zip(columns, row, strict=True):
+                padded[s, : values.size] = values
+        return flights
+
+    @property
+    def count(self) -> np.ndarray:
+        """Flights in each sigma's record (complete or cut), int[S]."""
+        return np.sum(self.complete >= 0, axis=-1)
+
+
 @dataclass
 class TraceResult(Readings):
     """Records and their analysis for every sigma at one frequency ratio.
@@ -61,10 +97,8 @@ class TraceResult(Readings):
         Over every integration step of the recorded periods.
     flight_tau : float[S]
         Longest flight (see :func:`longest_flight`).
-    flight_start, flight_end : float[S, F]
-        Every flight's bounds in tau, NaN padded.
-    flight_complete : int8[S, F]
-        1 for a flight inside the record, 0 for one cut by its start or end, -1 pad.
+    flights : Flights
+        Every flight of each record.
     settled : bool[S]
         The dwell at W met the scene's settling criterion.
     periodic : bool[S]
@@ -83,10 +117,7 @@ class TraceResult(Readings):
     harmonics: np.ndarray
     record: np.ndarray | None
     spectrum: np.ndarray
-    harmonic_order: np.ndarray
-    flight_start: np.ndarray
-    flight_end: np.ndarray
-    flight_complete: np.ndarray
+    flights: Flights
     settled: np.ndarray
     periodic: np.ndarray
     approach: np.ndarray
@@ -94,14 +125,20 @@ class TraceResult(Readings):
     steps: int = 0
 
     @property
-    def tau(self) -> np.ndarray:
-        """tau of each sample, from 0."""
-        return np.arange(self.periods * self.samples_per_period) * self.sample_step
+    def samples(self) -> int:
+        """Samples M of each sigma's record."""
+        return self.periods * self.samples_per_period
 
     @property
-    def flight_count(self) -> np.ndarray:
-        """Flights in each sigma's record (complete or cut), int[S]."""
-        return np.sum(self.flight_complete >= 0, axis=-1)
+    def tau(self) -> np.ndarray:
+        """tau of each sample, from 0."""
+        return np.arange(self.samples) * self.sample_step
+
+    @property
+    def harmonic_order(self) -> np.ndarray:
+        """The frequency of each line of :attr:`spectrum` over the excitation's,
+        float[M/2 + 1]."""
+        return harmonic_orders(self.samples, self.periods)
 
 
 # --------------------------------------------------------------------------- checks
@@ -393,7 +430,7 @@ def run_trace(
     scalars = {name: np.empty(sigma.size) for name in SCALAR_FIELDS}
     settled = np.zeros(sigma.size, dtype=bool)
     periodic = np.zeros(sigma.size, dtype=bool)
-    flights = []
+    intervals = []
     steps = 0
     for s, level in enumerate(sigma):
         oscillator = Oscillator(scene, level)
@@ -408,18 +445,8 @@ def run_trace(
         for name in SCALAR_FIELDS:  # flight_tau: from the interpolated flights, below
             scalars[name][s] = getattr(reading, name)
         periodic[s] = reading.periodic
-        start, end, complete = log.intervals()
-        scalars["flight_tau"][s] = longest_flight(start, end, complete, samples * sample_step)
-        flights.append((start, end, complete))
-
-    width = max((f[0].size for f in flights), default=0)
-    flight_start = np.full((sigma.size, width), np.nan)
-    flight_end = np.full((sigma.size, width), np.nan)
-    flight_complete = np.full((sigma.size, width), -1, dtype=np.int8)
-    for s, (start, end, complete) in enumerate(flights):
-        flight_start[s, : start.size] = start
-        flight_end[s, : end.size] = end
-        flight_complete[s, : complete.size] = complete
+        intervals.append(log.intervals())
+        scalars["flight_tau"][s] = longest_flight(*intervals[-1], samples * sample_step)
 
     return TraceResult(
         frequency_ratio=w,
@@ -432,12 +459,9 @@ def run_trace(
         harmonics=harmonics,
         record=recorder.record,
         spectrum=spectrum,
-        harmonic_order=harmonic_orders(samples, periods),
         amplitude=amplitude,
         phase=phase,
-        flight_start=flight_start,
-        flight_end=flight_end,
-        flight_complete=flight_complete,
+        flights=Flights.padded(intervals),
         settled=settled,
         periodic=periodic,
         approach=path,
@@ -457,6 +481,7 @@ __all__ = [
     "BRANCHES",
     "CHUNK_SAMPLES",
     "FlightLog",
+    "Flights",
     "RecordSink",
     "TraceResult",
     "approach_path",

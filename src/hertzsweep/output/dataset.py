@@ -438,7 +438,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     trace = ("sigma", "sample")
     flight = ("sigma", "flight")
     if result.record is None:  # streamed (RecordStream): in the file already
-        shape = (result.sigma.size, result.periods * result.samples_per_period)
+        shape = (result.sigma.size, result.samples)
         tau = np.broadcast_to(np.nan, shape[1:])
         columns = [np.broadcast_to(dtype(0), shape) for _, dtype in RECORD_VARIABLES]
     else:
@@ -452,13 +452,14 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     }
     data["spectrum"] = (("sigma", "harmonic_order"), result.spectrum)
     data.update(_readings(partial(getattr, result), ("sigma",), omega))
+    flights = result.flights
     data.update(
-        flight_count=("sigma", result.flight_count.astype(INDEX)),
-        flight_start=(flight, result.flight_start),
-        flight_end=(flight, result.flight_end),
-        flight_start_time=(flight, result.flight_start / omega),
-        flight_duration=(flight, (result.flight_end - result.flight_start) / omega),
-        flight_complete=(flight, result.flight_complete),
+        flight_count=("sigma", flights.count.astype(INDEX)),
+        flight_start=(flight, flights.start),
+        flight_end=(flight, flights.end),
+        flight_start_time=(flight, flights.start / omega),
+        flight_duration=(flight, (flights.end - flights.start) / omega),
+        flight_complete=(flight, flights.complete),
         settled=("sigma", result.settled.astype(np.int8)),
         periodic=("sigma", result.periodic.astype(np.int8)),
         frequency_ratio=((), w),
