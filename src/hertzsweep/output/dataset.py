@@ -1,11 +1,11 @@
 """Datasets: results -> self-describing datasets with CF-1.11 attributes.
 
-The one table of output attributes is :data:`ATTRIBUTES`; every builder takes names
-from it, so a variable means the same thing in every dataset. Builders take a driver's
-result and the scene and run nothing. Files are written only by the output layer and the
-command line, through :func:`write_atomic` and
-:func:`~hertzsweep.output.paths.atomic_path`: complete or absent (:mod:`.paths`: the
-checks, the lock and the temporary names).
+The one table of output attributes is ``attributes.toml`` beside this module
+(:func:`attributes`); every builder takes names from it, so a variable means the same
+thing in every dataset. Builders take a driver's result and the scene and run nothing.
+Files are written only by the output layer and the command line, through
+:func:`write_atomic` and :func:`~hertzsweep.output.paths.atomic_path`: complete or
+absent (:mod:`.paths`: the checks, the lock and the temporary names).
 
 Every dataset is a record of how it was made (:func:`global_attributes`): the code
 (``hertzsweep_version``, ``git_commit``, the versions of Python, numpy and numba), the
@@ -33,6 +33,7 @@ import os
 import shlex
 import subprocess
 import sys
+import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from pathlib import Path
@@ -61,153 +62,24 @@ REFERENCES = (  # the paper whose rig, model and figures hertzsweep reproduces
     "vibrations of an impacting Hertzian contact. Part 1: harmonic excitation, Journal of "
     "Sound and Vibration 265 (2003) 289-307"
 )
-LABEL = None  # the "units" of a string label: CF labels (section 6.1) carry none
 INDEX = np.int32  # integer type of indices, orders and counts (a harmonic, a point, ...)
 STEP_COUNT = np.int64  # integer type of integration-step counts: a study passes 2**31
 GIT_SECONDS = 5.0  # at most this long for each git query of the provenance
 
-# name -> (long_name, units[, extra attributes]); units "1" is dimensionless (of F_s),
-# LABEL a string label without units.
-ATTRIBUTES: dict[str, tuple[str, str | None] | tuple[str, str | None, dict[str, Any]]] = {
-    # coordinates
-    "direction": ("sweep direction", LABEL),
-    "sigma": ("input level F/F_s", "1"),
-    "frequency_ratio": ("excitation frequency over the natural frequency f0", "1"),
-    "frequency": ("excitation frequency", "Hz"),
-    "harmonic": ("harmonic order k of the transmitted normal force", "1"),
-    # sweep variables
-    "amplitude": ("amplitude of harmonic k of N/F_s (peak)", "1"),
-    "phase": ("phase lag of harmonic k behind the k-th excitation reference", "degree"),
-    "mean_force": ("mean transmitted normal force N/F_s", "1"),
-    "force_max": ("maximum of the transmitted normal force N/F_s", "1"),
-    "force_min": ("minimum of the transmitted normal force N/F_s", "1"),
-    "contact_loss_fraction": ("share of the period out of contact", "1"),
-    "flight_time": ("longest flight (loss of contact) per period", "s"),
-    "settled": ("steady state reached within the tolerance", "1"),
-    "periodic": ("steady state repeats every excitation period", "1"),
-    "jump_frequency_ratio": ("frequency ratio where the H1 response jumped", "1"),
-    "jump_frequency": ("frequency where the H1 response jumped", "Hz"),
-    # trace
-    "tau": ("dimensionless time tau = Omega t from the first recorded sample", "1"),
-    "time": ("time from the first recorded sample", "s"),
-    "displacement": ("dimensionless displacement q = 3/2 (z - z_s)/z_s", "1"),
-    "velocity": ("dimensionless velocity dq/dtau", "1"),
-    "normal_force": ("transmitted normal force N/F_s", "1"),
-    "in_contact": ("in contact (1) or in flight (0)", "1"),
-    "harmonic_order": ("frequency of the spectral line over the excitation frequency", "1"),
-    "spectrum_frequency": ("frequency of the spectral line", "Hz"),
-    "spectrum": ("amplitude spectrum of N/F_s (peak; the mean at order 0)", "1"),
-    "flight_start": ("start of the flight (loss of contact) in tau", "1"),
-    "flight_end": ("end of the flight (loss of contact) in tau", "1"),
-    "flight_start_time": ("start of the flight (loss of contact)", "s"),
-    "flight_duration": ("duration of the flight (loss of contact)", "s"),
-    "flight_complete": ("flight lies wholly inside the record", "1"),
-    "flight_count": ("number of flights in the record", "1"),
-    # branch
-    "point": ("index of the point along the branch, in arclength order", "1"),
-    "multiplier": ("index of the Floquet multiplier, largest modulus first", "1"),
-    "bifurcation": ("index of the located bifurcation along the branch", "1"),
-    "multiplier_real": ("real part of the Floquet multiplier of the periodic orbit", "1"),
-    "multiplier_imag": ("imaginary part of the Floquet multiplier of the periodic orbit", "1"),
-    "stable": (
-        "periodic orbit asymptotically stable (both multipliers inside the unit circle); -1 pads",
-        "1",
-    ),
-    "arclength": (
-        "pseudo-arclength along the branch in the scaled coordinates "
-        "(w, q/Q, q'/(w Q)), Q = sigma/(2 zeta)",
-        "1",
-    ),
-    "branch_complete": ("branch continued across the whole frequency span", "1"),
-    "branch_end": (
-        "how the branch ended: end, start (left the span where it began), "
-        "stalled, retraced, max-points",
-        LABEL,
-    ),
-    "branch_bridges": (
-        "gaps of the branch crossed at fixed frequency (discontinuous contact damping)",
-        "1",
-    ),
-    "bifurcation_frequency_ratio": ("frequency ratio of the bifurcation", "1"),
-    "bifurcation_frequency": ("frequency of the bifurcation", "Hz"),
-    "bifurcation_kind": (
-        "kind of bifurcation: fold, period-doubling or neimark-sacker (empty pads)",
-        LABEL,
-    ),
-    "bifurcation_amplitude": ("amplitude of harmonic 1 of N/F_s at the bifurcation (peak)", "1"),
-    "bifurcation_point": ("index of the branch point at the bifurcation (-1 pads)", "1"),
-    # study
-    "damping_ratio": ("damping ratio zeta (eq. 4)", "1"),
-    "damping_exponent": ("exponent n of the contact damping law (eq. 11)", "1"),
-    "damping_law": ("damping law: viscous (eq. 8) or contact (eq. 11)", LABEL),
-    "case_failed": ("the study case failed or has no result (its values are fill values)", "1"),
-    "case_id": (
-        "sha256 of the case's resolved configuration: its part OUT.parts/<id>.nc",
-        LABEL,
-    ),
-    # accuracy
-    "setting_label": ("solver settings of the rung", LABEL),
-    "steps_per_period": ("integration steps per excitation period", "1"),
-    "settle": ("settling: periods, or auto:tolerance", LABEL),
-    "steady_state": ("steady-state method: settle or shooting", LABEL),
-    "method": ("integration method (solver.method)", LABEL),
-    "error_h1": (
-        "max abs error of the H1 amplitude over the sweep, relative to the reference's largest H1",
-        "1",
-    ),
-    "error_h2": (
-        "max abs error of the H2 amplitude over the sweep, relative to the reference's largest H2",
-        "1",
-    ),
-    "error_force": ("max abs error of force_max and force_min over the sweep", "1"),
-    "error_jump": ("max abs error of the jump frequency ratio (inf: a jump missed or added)", "1"),
-    "cost_steps": ("integration steps of the sweep", "1"),
-    "wall_time": ("wall-clock time of the sweep", "s"),
-    "pareto": ("on the Pareto front of wall_time and error_h1", "1"),
-    "order_h1": ("observed order of accuracy of H1 from N, 2N, 4N (steps rungs)", "1"),
-    "settled_fraction": ("share of the dwells that reached the steady state", "1"),
-    # measured and fit (units None: in the parameter's own units, parameter_units)
-    "reference": ("where the measured values come from", LABEL),
-    "model_amplitude": ("amplitude of harmonic 1 of N/F_s of the fitted model (peak)", "1"),
-    "model_phase": ("phase lag of harmonic 1 of the fitted model", "degree"),
-    "residual_amplitude": ("model amplitude over measured amplitude, minus 1", "1"),
-    "residual_phase": ("model phase minus measured phase, wrapped to [-180, 180)", "degree"),
-    "model_jump_frequency": ("jump frequency of the fitted model", "Hz"),
-    "model_jump_frequency_ratio": ("jump frequency ratio of the fitted model", "1"),
-    "residual_jump": ("model jump frequency over measured jump frequency, minus 1", "1"),
-    "curve_sigma": ("input level F/F_s of the model's jump curve", "1"),
-    "curve_jump_frequency_ratio": ("jump frequency ratio of the fitted model", "1"),
-    "parameter": ("fitted configuration key", LABEL),
-    "parameter_column": ("fitted configuration key (second index of a matrix)", LABEL),
-    "parameter_units": ("units of the fitted parameter", LABEL),
-    "estimate": ("least-squares estimate of the parameter, in parameter_units", None),
-    "standard_error": (
-        "standard error of the estimate from the Jacobian at the optimum, in parameter_units",
-        None,
-    ),
-    "initial_value": ("where the least-squares search started, in parameter_units", None),
-    "lower_bound": ("lower bound of the search, in parameter_units", None),
-    "upper_bound": ("upper bound of the search, in parameter_units", None),
-    "at_bound": ("the estimate lies on a bound of the search", "1"),
-    "correlation": ("correlation of the estimates", "1"),
-    "law": ("index of the contact damping law fitted (--compare-laws)", "1"),
-    "law_exponent": ("fixed exponent n of the contact damping law (NaN: n fitted)", "1"),
-    "law_estimate": ("estimate of the parameter with that law, in parameter_units", None),
-    "law_standard_error": ("standard error of that estimate, in parameter_units", None),
-    "law_residual_rms": ("RMS of the relative residuals with that law", "1"),
-}
+ATTRIBUTES_FILE = Path(__file__).with_name("attributes.toml")  # name -> CF attributes
+
+
+@functools.cache
+def attributes() -> dict[str, dict[str, Any]]:
+    """name -> CF attributes of every variable and coordinate the datasets hold, read once
+    from :data:`ATTRIBUTES_FILE`: ``long_name``, ``units`` (none on a string label) and
+    any other attribute the variable always has."""
+    return tomllib.loads(ATTRIBUTES_FILE.read_text(encoding="utf-8"))
 
 
 def attrs(name: str) -> dict[str, Any]:
-    """CF attributes of a named variable from :data:`ATTRIBUTES` (no ``units`` on a
-    string label)."""
-    entry = ATTRIBUTES[name]
-    out: dict[str, Any] = {"long_name": entry[0]}
-    if entry[1] is not LABEL:
-        out["units"] = entry[1]
-    if len(entry) > 2:
-        out.update(entry[2])  # type: ignore[misc]
-    return out
+    """CF attributes of a named variable from :func:`attributes` (a copy to add to)."""
+    return dict(attributes()[name])
 
 
 # --------------------------------------------------------------------------- provenance
@@ -375,7 +247,7 @@ def _readings(get: Callable[[str], Any], dims: tuple[str, ...], omega: float) ->
 
 
 def _build(data: Variables, coords: Mapping[str, Any], global_attrs: dict[str, Any]) -> Frame:
-    """A dataset whose variables take their CF attributes from :data:`ATTRIBUTES`."""
+    """A dataset whose variables take their CF attributes from :func:`attributes`."""
     variables = {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()}
     return Frame(variables, coords, global_attrs)
 

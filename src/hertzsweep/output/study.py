@@ -37,9 +37,9 @@ from ..drivers.study import (
 )
 from ..errors import HertzsweepError
 from .dataset import (
-    ATTRIBUTES,
     INDEX,
     atomic_path,
+    attributes,
     attrs,
     global_attributes,
     merge_attributes,
@@ -346,9 +346,9 @@ def study_config(study: Study) -> dict[str, Any]:
 
 
 def _grid_attrs(key: str, dim: str, labels: bool = False) -> dict[str, Any]:
-    """CF attributes of a grid coordinate: from :data:`ATTRIBUTES` when the dimension is
+    """CF attributes of a grid coordinate: from :func:`attributes` when the dimension is
     named there, else the config key itself; string values are labels, without units."""
-    if dim in ATTRIBUTES:
+    if dim in attributes():
         out = attrs(dim)
     else:
         out = {"long_name": f"study grid value of {key}", "units": GRID_UNITS.get(key, "1")}
