@@ -136,5 +136,18 @@ def test_bench_floor_is_the_kernels_own_recurrence():
     assert np.all(lanes == scheme_compression(q))
 
 
+def test_bench_divided_floor_is_the_contact_update():
+    """The contact law's floor is its update (n = 3/2) stripped of everything else: the
+    same bits as the kernel, so the division and the root it times are the kernel's."""
+    law = make_law("contact", 0.01, 1.5)
+    h = scheme.step_size(0.97, 256)
+    step = scheme.make_step(law, h)
+    _, loads = bench._chain_constants(1)
+    q_prev, q, status = integrate.advance(0.0, 0.0, h, law, drive(bench.bench_scene(2), 0.01), 3)
+    assert status == scheme.OK
+    lanes = bench._bare_lanes_divided(np.ones(3), law.twozeta, step.half_h, step.c0, loads, 3)
+    assert np.all(lanes == scheme_compression(q))
+
+
 def scheme_compression(q):
     return 1.0 + q * (2.0 / 3.0)

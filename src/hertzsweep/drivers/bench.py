@@ -8,7 +8,8 @@ Every ratio is measured in the same run, never typed in:
   way on this CPU;
 - ns per trajectory-step of many trajectories in lockstep (8 and 16), against the bare
   recurrence vectorised across 16 trajectories (the throughput floor of the CPU's vector
-  square root);
+  square root), and the contact law's also against its own bare update (a square root and
+  a division per step, which share the CPU's divider);
 - wall time of a 121-point up + down sweep (w 0.90 to 1.05, 256 steps per period,
   300 settle + 20 measured periods, sigma = 1 %);
 - time per dwell at equal accuracy (:func:`equal_accuracy`): one dwell (:class:`Dwell`)
@@ -115,6 +116,25 @@ def _bare_lanes(d, a, b, k, loads, periods):
     return d
 
 
+@njit(cache=CACHE, error_model="numpy")
+def _bare_lanes_divided(d, twozeta, half_h, c0, loads, periods):
+    """The contact law's update (n = 3/2: ``c = 2 zeta d sqrt d``) across trajectories,
+    and nothing else: a square root and a division per step, the two on the CPU's one
+    divider. The throughput floor of the contact law's batched loop."""
+    d_prev = d.copy()
+    for _ in range(periods):
+        for j in range(loads.shape[0]):
+            load = loads[j]
+            for t in range(d.shape[0]):
+                x = d[t]
+                root = math.sqrt(x)
+                ch = twozeta * x * root * half_h
+                rest = fma(-(c0 * x), root, 2.0 * x - d_prev[t] + c0 * load)
+                d[t] = fma(ch, d_prev[t], rest) / (1.0 + ch)
+                d_prev[t] = x
+    return d
+
+
 def _chain_constants(count: int):
     n = 256
     law = make_law("viscous", 0.0045, 1.5)
@@ -142,6 +162,18 @@ def floor_ns_per_trajectory_step(count: int, steps: int) -> float:
     periods = max(1, steps // (loads.size * count))
     _bare_lanes(np.ones(count), a, b, k, loads, 1)
     seconds = _best(lambda: _bare_lanes(np.ones(count), a, b, k, loads, periods))
+    return seconds / (periods * loads.size * count) * 1e9
+
+
+def floor_ns_per_trajectory_step_divided(count: int, steps: int) -> float:
+    """ns per trajectory-step of :func:`_bare_lanes_divided` over ``count`` trajectories."""
+    _, loads = _chain_constants(count)
+    law = make_law("contact", 0.01, 1.5)
+    step = scheme.make_step(law, scheme.step_size(0.97, loads.size))
+    periods = max(1, steps // (loads.size * count))
+    args = (law.twozeta, step.half_h, step.c0, loads)
+    _bare_lanes_divided(np.ones(count), *args, 1)
+    seconds = _best(lambda: _bare_lanes_divided(np.ones(count), *args, periods))
     return seconds / (periods * loads.size * count) * 1e9
 
 
@@ -779,10 +811,17 @@ def run_all(quick: bool = False) -> dict[str, Any]:
     out["floor_ns_per_trajectory_step_16"] = floor_ns_per_trajectory_step(16, steps)
     for key, value in bench_batch(repeats=1 if quick else 3).items():
         out[f"batch_{key}"] = value
+    out["floor_ns_per_trajectory_step_16_divided"] = floor_ns_per_trajectory_step_divided(
+        16, steps
+    )
     for law in ("viscous", "contact"):
         out[f"batch_ratio_to_floor_{law}_16"] = (
             out[f"batch_{law}_ns_per_trajectory_step_16"] / out["floor_ns_per_trajectory_step_16"]
         )
+    out["batch_ratio_to_divided_floor_contact_16"] = (
+        out["batch_contact_ns_per_trajectory_step_16"]
+        / out["floor_ns_per_trajectory_step_16_divided"]
+    )
     scene = bench_scene(31 if quick else 121)
     out["sweep_points"] = int(scene.sweep.frequency_ratios.size)
     out["sweep_dwells"] = out["sweep_points"] * len(scene.sweep.directions)
