@@ -131,8 +131,7 @@ def test_bench_floor_is_the_kernels_own_recurrence():
     )
     assert status == scheme.OK
     assert bench._bare_chain(1.0, a[0], b[0], k[0], loads, 3) == scheme_compression(q)
-    lanes = bench._bare_lanes(np.ones(4), a.repeat(4)[:4], b.repeat(4)[:4], k.repeat(4)[:4],
-                              loads, 3)  # fmt: skip
+    lanes = bench._bare_lanes(np.ones(4), (a.repeat(4), b.repeat(4), k.repeat(4)), loads, 3)
     assert np.all(lanes == scheme_compression(q))
 
 
@@ -145,7 +144,7 @@ def test_bench_divided_floor_is_the_contact_update():
     _, loads = bench._chain_constants(1)
     q_prev, q, status = integrate.advance(0.0, 0.0, h, law, drive(bench.bench_scene(2), 0.01), 3)
     assert status == scheme.OK
-    lanes = bench._bare_lanes_divided(np.ones(3), law.twozeta, step.half_h, step.c0, loads, 3)
+    lanes = bench._bare_lanes(np.ones(3), (law.twozeta, step.half_h, step.c0), loads, 3)
     assert np.all(lanes == scheme_compression(q))
 
 

@@ -31,7 +31,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from ..core.config import Scene, scene_from_dict
 from ..core.model import check_stability
@@ -100,37 +101,44 @@ def _bare_chain(d, a, b, k, loads, periods):
     return d
 
 
+def _bare_update(x, x_prev, load, constants, t):
+    """One lane's bare update: the viscous one (``constants = (a, b, k)``, arrays over the
+    lanes) or the contact law's with n = 3/2 (``(2 zeta, h/2, c0)``, floats: ``c = 2 zeta
+    d sqrt d``, a square root and a division, the two on the CPU's one divider)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_bare_update, inline="always")
+def _bare_update_typed(x, x_prev, load, constants, t):
+    if isinstance(constants[0], types.Array):
+
+        def viscous(x, x_prev, load, constants, t):
+            a, b, k = constants
+            kt = k[t]
+            return fma(-(kt * x), math.sqrt(x), fma(x, a[t], kt * load - x_prev * b[t]))
+
+        return viscous
+
+    def divided(x, x_prev, load, constants, t):
+        twozeta, half_h, c0 = constants
+        root = math.sqrt(x)
+        ch = twozeta * x * root * half_h
+        return fma(ch, x_prev, fma(-(c0 * x), root, 2.0 * x - x_prev + c0 * load)) / (1.0 + ch)
+
+    return divided
+
+
 @njit(cache=CACHE, error_model="numpy")
-def _bare_lanes(d, a, b, k, loads, periods):
-    """:func:`_bare_chain` for T trajectories, trajectory innermost (vectorised): the
-    throughput floor of the update across trajectories."""
+def _bare_lanes(d, constants, loads, periods):
+    """An update (:func:`_bare_update`) for T trajectories and nothing else, trajectory
+    innermost (vectorised): the throughput floor of that update across trajectories."""
     d_prev = d.copy()
     for _ in range(periods):
         for j in range(loads.shape[0]):
             load = loads[j]
             for t in range(d.shape[0]):
                 x = d[t]
-                kt = k[t]
-                d[t] = fma(-(kt * x), math.sqrt(x), fma(x, a[t], kt * load - d_prev[t] * b[t]))
-                d_prev[t] = x
-    return d
-
-
-@njit(cache=CACHE, error_model="numpy")
-def _bare_lanes_divided(d, twozeta, half_h, c0, loads, periods):
-    """The contact law's update (n = 3/2: ``c = 2 zeta d sqrt d``) across trajectories,
-    and nothing else: a square root and a division per step, the two on the CPU's one
-    divider. The throughput floor of the contact law's batched loop."""
-    d_prev = d.copy()
-    for _ in range(periods):
-        for j in range(loads.shape[0]):
-            load = loads[j]
-            for t in range(d.shape[0]):
-                x = d[t]
-                root = math.sqrt(x)
-                ch = twozeta * x * root * half_h
-                rest = fma(-(c0 * x), root, 2.0 * x - d_prev[t] + c0 * load)
-                d[t] = fma(ch, d_prev[t], rest) / (1.0 + ch)
+                d[t] = _bare_update(x, d_prev[t], load, constants, t)
                 d_prev[t] = x
     return d
 
@@ -160,20 +168,21 @@ def floor_ns_per_trajectory_step(count: int, steps: int) -> float:
     """ns per trajectory-step of :func:`_bare_lanes` over ``count`` trajectories."""
     (a, b, k), loads = _chain_constants(count)
     periods = max(1, steps // (loads.size * count))
-    _bare_lanes(np.ones(count), a, b, k, loads, 1)
-    seconds = _best(lambda: _bare_lanes(np.ones(count), a, b, k, loads, periods))
+    _bare_lanes(np.ones(count), (a, b, k), loads, 1)
+    seconds = _best(lambda: _bare_lanes(np.ones(count), (a, b, k), loads, periods))
     return seconds / (periods * loads.size * count) * 1e9
 
 
 def floor_ns_per_trajectory_step_divided(count: int, steps: int) -> float:
-    """ns per trajectory-step of :func:`_bare_lanes_divided` over ``count`` trajectories."""
+    """ns per trajectory-step of :func:`_bare_lanes` with the contact law's update over
+    ``count`` trajectories."""
     _, loads = _chain_constants(count)
     law = make_law("contact", 0.01, 1.5)
     step = scheme.make_step(law, scheme.step_size(0.97, loads.size))
     periods = max(1, steps // (loads.size * count))
-    args = (law.twozeta, step.half_h, step.c0, loads)
-    _bare_lanes_divided(np.ones(count), *args, 1)
-    seconds = _best(lambda: _bare_lanes_divided(np.ones(count), *args, periods))
+    constants = (law.twozeta, step.half_h, step.c0)
+    _bare_lanes(np.ones(count), constants, loads, 1)
+    seconds = _best(lambda: _bare_lanes(np.ones(count), constants, loads, periods))
     return seconds / (periods * loads.size * count) * 1e9
 
 
@@ -811,9 +820,7 @@ def run_all(quick: bool = False) -> dict[str, Any]:
     out["floor_ns_per_trajectory_step_16"] = floor_ns_per_trajectory_step(16, steps)
     for key, value in bench_batch(repeats=1 if quick else 3).items():
         out[f"batch_{key}"] = value
-    out["floor_ns_per_trajectory_step_16_divided"] = floor_ns_per_trajectory_step_divided(
-        16, steps
-    )
+    out["floor_ns_per_trajectory_step_16_divided"] = floor_ns_per_trajectory_step_divided(16, steps)
     for law in ("viscous", "contact"):
         out[f"batch_ratio_to_floor_{law}_16"] = (
             out[f"batch_{law}_ns_per_trajectory_step_16"] / out["floor_ns_per_trajectory_step_16"]
