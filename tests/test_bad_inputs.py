@@ -1076,6 +1076,7 @@ def run_case(
 # Variables that hold NaN by design: no jump in the swept range (sweep), the padding of
 # the flight lists (trace).
 DOCUMENTED_NAN = {
+    "ball_mode_error",  # where the dwell or record does not repeat every period
     "jump_frequency_ratio",
     "jump_frequency",
     "flight_start",

@@ -18,10 +18,12 @@ import xarray as xr
 from tests.golden_cases import CASES, GOLDEN, run
 
 RTOL = 1e-12  # relative to the variable's largest magnitude (see the module docstring)
+# variables the datasets gained after the references were made: checked by their own tests
+ADDED = {"ball_mode_error"}  # tests/test_ballmode.py
 
 
 def assert_same(new: xr.Dataset, ref: xr.Dataset, name: str) -> None:
-    assert set(new.data_vars) == set(ref.data_vars), name
+    assert set(new.data_vars) - ADDED == set(ref.data_vars), name
     assert dict(new.sizes) == dict(ref.sizes), name
     for key in ref.variables:
         a, b = new[key].values, ref[key].values

@@ -140,7 +140,7 @@ def write_result(kind: Kind, result: Any, scene: Scene, output: str) -> xr.Datas
 
     ds = kind.build(result, scene)
     write_atomic(ds, output)
-    _report(kind, result, ds, output)
+    _report(kind, result, ds, output, scene)
     return ds
 
 
@@ -156,12 +156,37 @@ def write_streamed(kind: Kind, scene: Scene, output: str, run: Callable[[Any], A
         result = run(stream)
         ds = kind.build(result, scene)
         stream.finish(ds)
-    _report(kind, result, ds, output)
+    _report(kind, result, ds, output, scene)
 
 
-def _report(kind: Kind, result: Any, ds: Any, output: str) -> None:
-    """The kind's summary of a written output, and the file written."""
+def _report(kind: Kind, result: Any, ds: Any, output: str, scene: Scene) -> None:
+    """The kind's summary of a written output, and the file written; on stderr, once, a
+    warning where the response reaches the ball's own mode (:mod:`hertzsweep.core.ballmode`)."""
     text = kind.summary(result, ds)
     if text:
         click.echo(text)
     click.echo(f"wrote {output}")
+    warning = ball_mode_warning(result, scene)
+    if warning:
+        click.echo(f"hertzsweep: warning: {warning}", err=True)
+
+
+def ball_mode_warning(result: Any, scene: Scene) -> str:
+    """The warning of a sweep's or a trace's largest ball-mode figure above the threshold
+    (its sigma, w and, for a sweep, direction), or "" where none is."""
+    import numpy as np
+
+    from ..core.ballmode import THRESHOLD, warning_text
+    from ..core.rig import derive
+
+    errors = getattr(result, "ball_mode_error", None)
+    if errors is None or not np.any(errors > THRESHOLD):
+        return ""
+    at = np.unravel_index(np.nanargmax(errors), errors.shape)
+    if len(at) == 3:  # a sweep: (direction, sigma, frequency_ratio)
+        d, s, p = at
+        w, after = result.frequency_ratio[p], f" ({result.directions[d]} sweep)"
+    else:  # a trace: (sigma,) at its one frequency ratio
+        (s,), w, after = at, result.frequency_ratio, ""
+    where = f"sigma = {result.sigma[s]:g}, w = {w:g}{after}"
+    return warning_text(float(errors[at]), where, derive(scene.rig).ball_mode_frequency)

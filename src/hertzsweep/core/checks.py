@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from .ballmode import check_periods
 from .config import (
     DampingConfig,
     ExcitationConfig,
@@ -259,11 +260,12 @@ def check_stability_limit(scene: Scene) -> float:
 
 
 # --------------------------------------------------------------------------- budgets
-def periods_per_dwell(sweep: SweepConfig) -> int:
+def periods_per_dwell(sweep: SweepConfig, extra: int = 0) -> int:
     """Periods integrated at one frequency, at most: settling (``max_settle_periods`` for
-    ``"auto"``) then measuring."""
+    ``"auto"``), measuring, and ``extra`` (a sweep's ball-mode period,
+    :func:`~hertzsweep.core.ballmode.check_periods`)."""
     settle = sweep.max_settle_periods if sweep.settle_periods is None else sweep.settle_periods
-    return settle + sweep.measure_periods
+    return settle + sweep.measure_periods + extra
 
 
 def max_steps(scene: Scene) -> int:
@@ -282,7 +284,7 @@ def check_steps(scene: Scene, points: int) -> int:
     naming the factor furthest above the default scene's (its key)."""
     sweep = scene.sweep
     trajectories = len(sweep.directions) * len(scene.excitation.sigma)
-    periods = periods_per_dwell(sweep)
+    periods = periods_per_dwell(sweep, check_periods(scene.rig))
     steps_per_period = scene.solver.steps_per_period
     total = points * trajectories * periods * steps_per_period
     budget = max_steps(scene)
@@ -314,11 +316,13 @@ def check_steps(scene: Scene, points: int) -> int:
 
 def result_bytes(scene: Scene, points: int) -> int:
     """An estimate of the memory of a run's results: per dwell and trajectory, amplitude
-    and phase of every harmonic, the scalar readings and the flags, held
+    and phase of every harmonic, the scalar readings and the flags (and, where the rig
+    has a ball, the ball-mode figure and the end state it is read from), held
     :data:`RESULT_COPIES` times; the grid's coordinates; the per-period tables."""
     trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
     harmonics = len(scene.lockin.harmonics)
-    per_dwell = (2 * harmonics + SCALAR_READINGS) * FLOAT + FLAGS
+    ball = 3 * check_periods(scene.rig)  # e and the state (q_prev, q) of each dwell
+    per_dwell = (2 * harmonics + SCALAR_READINGS + ball) * FLOAT + FLAGS
     tables = 2 * scene.solver.steps_per_period * FLOAT  # sin and cos of one period
     return RESULT_COPIES * (trajectories * points * per_dwell + 3 * points * FLOAT) + tables
 
@@ -391,7 +395,7 @@ def preflight(scene: Scene) -> Figures:
     return Figures(
         points=int(grid.size),
         trajectories=len(scene.sweep.directions) * len(scene.excitation.sigma),
-        periods_per_dwell=periods_per_dwell(scene.sweep),
+        periods_per_dwell=periods_per_dwell(scene.sweep, check_periods(scene.rig)),
         steps=steps,
         max_steps=max_steps(scene),
         memory=memory,

@@ -93,11 +93,15 @@ class Block(Readings):
         The raw Fourier sums (``cos``, ``sin``), for combining blocks and comparing them.
     samples : int
         Steps in the block (whole periods times N).
+    end : float[T, 2]
+        The method's state ``(q_prev, q)`` at the end of the block (of the later block
+        when two are combined), from which one more period can be read.
     """
 
     periodic: np.ndarray
     coefficients: np.ndarray
     samples: int
+    end: np.ndarray
 
     @classmethod
     def read(cls, buffers: Readout, samples: int, h: np.ndarray, tolerance: float) -> Block:
@@ -124,14 +128,16 @@ class Block(Readings):
             periodic=mismatch / scale < tolerance,
             coefficients=coefficients,
             samples=samples,
+            end=np.column_stack([q_prev, q]),
         )
 
     @classmethod
-    def of(cls, reading: Reading) -> Block:
-        """The block of one :class:`Reading`."""
+    def of(cls, reading: Reading, state: State) -> Block:
+        """The block of one :class:`Reading`, ending at ``state``."""
         return cls(
             **{name: np.array([getattr(reading, name)]) for name in BLOCK_ARRAYS},
             samples=reading.samples,
+            end=np.array([[state.q_prev, state.q]]),
         )
 
     def at(self, t: int) -> Reading:
@@ -171,6 +177,7 @@ class Block(Readings):
             periodic=later.periodic,
             coefficients=coefficients,
             samples=samples,
+            end=later.end,
         )
 
     def agrees(self, later: Block, tolerance: float) -> np.ndarray:

@@ -348,7 +348,7 @@ def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray)
             settled = False
         else:  # a kernel status stopped the dwell: run it again here, to report it
             state, reading, settled = shooting_dwell(oscillator, State(*x), frequencies[stop])
-        yield slice(stop, stop + 1), Block.of(reading), np.array([settled])
+        yield slice(stop, stop + 1), Block.of(reading, state), np.array([settled])
         x[:] = state.q_prev, state.q, state.h
         start = stop + 1
 

@@ -47,7 +47,7 @@ class Strategy:
             return
         for position, w in enumerate(frequencies):
             state, reading, settled = self.dwell(oscillator, state, w)
-            yield slice(position, position + 1), Block.of(reading), np.array([settled])
+            yield slice(position, position + 1), Block.of(reading, state), np.array([settled])
 
 
 STRATEGIES: dict[str, Strategy] = {

@@ -17,6 +17,7 @@ from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import HertzsweepError, Interrupted
 from ..kernels import integrate, scheme
+from .ballmode import BallModeCheck, checked
 from .oscillator import Block, Oscillator, drive
 from .readings import HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
 from .steady import strategy
@@ -29,7 +30,10 @@ class SweepResult(Readings):
     """Arrays on (direction, sigma, frequency_ratio[, harmonic]), grid in ascending order.
 
     ``flight_tau`` is the longest flight per measured window in tau; the dataset layer
-    turns it into seconds with the rig's Omega.
+    turns it into seconds with the rig's Omega. ``ball_mode_error``: the figure e of
+    :mod:`hertzsweep.core.ballmode` per periodic dwell, where the sweep read it (else
+    None), from one more period of each dwell's end state ``end`` (float[..., 2], the
+    method's state), all read together once the sweep has run.
     """
 
     directions: tuple[str, ...]
@@ -41,9 +45,11 @@ class SweepResult(Readings):
     jump_frequency_ratio: np.ndarray
     finished: np.ndarray  # (direction, sigma): that sweep ran to its end
     steps: int = 0
+    ball_mode_error: np.ndarray | None = None
+    end: np.ndarray | None = None
 
     @classmethod
-    def empty(cls, scene: Scene) -> SweepResult:
+    def empty(cls, scene: Scene, ball_mode: bool = False) -> SweepResult:
         directions = scene.sweep.directions
         sigma = np.asarray(scene.excitation.sigma, dtype=float)
         w = scene.sweep.frequency_ratios
@@ -64,6 +70,8 @@ class SweepResult(Readings):
             periodic=np.zeros(shape, dtype=bool),
             jump_frequency_ratio=np.full(shape[:2], np.nan),
             finished=np.zeros(shape[:2], dtype=bool),
+            ball_mode_error=nan() if ball_mode else None,
+            end=nan(2) if ball_mode else None,
             **readings,
         )
 
@@ -77,6 +85,23 @@ class SweepResult(Readings):
             getattr(self, name)[at] = getattr(block, name)
         self.settled[at] = settled
         self.periodic[at] = block.periodic
+        if self.end is not None:
+            self.end[at] = block.end
+
+    def read_ball_mode(self, ball: BallModeCheck, oscillator: Oscillator) -> int:
+        """``ball_mode_error`` of every dwell whose response repeats every period (NaN
+        elsewhere: one period of a response that does not repeat holds lines that are not
+        its own), one more period each from its end state, all in one compiled loop;
+        returns the steps taken."""
+        done = np.isfinite(self.end[..., 0]) & self.periodic
+        directions, levels, points = np.nonzero(done)
+        if directions.size:
+            before = oscillator.steps
+            self.ball_mode_error[done] = ball.errors(
+                oscillator, self.sigma[levels], self.frequency_ratio[points], self.end[done]
+            )
+            return oscillator.steps - before
+        return 0
 
 
 def sweep_order(frequency_ratios: np.ndarray, direction: str) -> np.ndarray:
@@ -106,7 +131,11 @@ def find_jump(
 
 
 def run_direction(
-    scene: Scene, sigma: float, direction: str, result: SweepResult, progress: Progress | None
+    scene: Scene,
+    sigma: float,
+    direction: str,
+    result: SweepResult,
+    progress: Progress | None,
 ) -> Oscillator:
     """One stepped-sine sweep at one sigma, from rest, with the scene's steady-state
     strategy, stored into ``result`` as its dwells finish. Returns the oscillator (its step
@@ -130,13 +159,20 @@ def run_direction(
     return oscillator
 
 
-def run_sweep(scene: Scene, progress: Progress | None = None, batched: bool = True) -> SweepResult:
+def run_sweep(
+    scene: Scene,
+    progress: Progress | None = None,
+    batched: bool = True,
+    ball_mode: bool = False,
+) -> SweepResult:
     """Up and/or down stepped-sine sweeps for every sigma of the scene.
 
     With a fixed number of settling periods and the settle steady state (:func:`lockstep`)
     every sweep (direction x sigma) advances together in one compiled loop
     (:class:`Lockstep`, many trajectories vectorised): the numbers of one sweep at a time
-    bit for bit (``batched=False`` runs them one at a time).
+    bit for bit (``batched=False`` runs them one at a time). ``ball_mode``: each dwell is
+    read one more period for the ball's own mode (:mod:`.ballmode`; where the rig has a
+    ball), into ``ball_mode_error``; the other readings are the same either way.
 
     Raises
     ------
@@ -151,9 +187,10 @@ def run_sweep(scene: Scene, progress: Progress | None = None, batched: bool = Tr
         The state became non-finite.
     """
     check_stability(scene)
+    ball = BallModeCheck(scene) if ball_mode and checked(scene) else None
     if batched and lockstep(scene):
-        return _run_lockstep(scene, progress)
-    result = SweepResult.empty(scene)
+        return _run_lockstep(scene, progress, ball)
+    result = SweepResult.empty(scene, ball is not None)
     try:
         for d, direction in enumerate(result.directions):
             for s, sigma in enumerate(result.sigma):
@@ -169,6 +206,8 @@ def run_sweep(scene: Scene, progress: Progress | None = None, batched: bool = Tr
     except KeyboardInterrupt as exc:
         signal_number = getattr(exc, "signal_number", 2)
         raise Interrupted(result, signal_number) from None
+    if ball is not None:
+        result.steps += result.read_ball_mode(ball, Oscillator(scene, result.sigma[0]))
     return result
 
 
@@ -231,7 +270,9 @@ class Lockstep:
         return scheme.OK, -1, head.then(tail), head.agrees(tail, sweep.tolerance)
 
 
-def _run_lockstep(scene: Scene, progress: Progress | None = None) -> SweepResult:
+def _run_lockstep(
+    scene: Scene, progress: Progress | None = None, ball: BallModeCheck | None = None
+) -> SweepResult:
     """Every (direction, sigma) sweep of the scene, advanced together in lockstep: the
     numbers of one sweep at a time, bit for bit.
 
@@ -240,6 +281,8 @@ def _run_lockstep(scene: Scene, progress: Progress | None = None) -> SweepResult
     scene : Scene
     progress : callable, optional
         Called with the number of dwells finished (T after each lockstep dwell).
+    ball : BallModeCheck, optional
+        Reads each dwell one more period for the ball's own mode.
 
     Raises
     ------
@@ -250,7 +293,7 @@ def _run_lockstep(scene: Scene, progress: Progress | None = None) -> SweepResult
         On SIGINT, with the result so far (lockstep sweeps finish together, so none is
         marked finished).
     """
-    result = SweepResult.empty(scene)
+    result = SweepResult.empty(scene, ball is not None)
     w = result.frequency_ratio
     pairs = [(d, s) for d in range(len(result.directions)) for s in range(result.sigma.size)]
     n = int(scene.solver.steps_per_period)
@@ -274,6 +317,8 @@ def _run_lockstep(scene: Scene, progress: Progress | None = None) -> SweepResult
     except KeyboardInterrupt as exc:
         raise Interrupted(result, getattr(exc, "signal_number", 2)) from None
     result.steps = run.steps
+    if ball is not None:
+        result.steps += result.read_ball_mode(ball, run.oscillators[0])
     for d, s in pairs:
         result.jump_frequency_ratio[d, s] = find_jump(
             result.amplitude[d, s, :, 0], w, result.directions[d], scene.sweep.jump_threshold

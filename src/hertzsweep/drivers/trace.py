@@ -28,6 +28,7 @@ from ..core.model import check_stability
 from ..errors import ConfigError, HertzsweepError
 from ..kernels import scheme
 from ..kernels.flights import IN_CONTACT, NORMAL_FORCE, RECORD_COLUMNS, flight_intervals
+from .ballmode import spectrum_errors
 from .oscillator import Oscillator, Reading, State
 from .readings import SCALAR_FIELDS, Readings
 from .spectrum import AmplitudeSpectrum, harmonic_orders
@@ -105,6 +106,9 @@ class TraceResult(Readings):
         The recorded state repeats after one period.
     approach : float[A]
         The grid frequencies dwelt at before W, in order (empty: from rest at W).
+    ball_mode_error : float[S] or None
+        The figure e of :mod:`hertzsweep.core.ballmode` from each spectrum (None where the
+        rig has no ball; NaN where the record does not repeat every period).
     """
 
     frequency_ratio: float
@@ -123,6 +127,7 @@ class TraceResult(Readings):
     approach: np.ndarray
     spectrum_backend: str
     steps: int = 0
+    ball_mode_error: np.ndarray | None = None
 
     @property
     def samples(self) -> int:
@@ -449,6 +454,7 @@ def run_trace(
         scalars["flight_tau"][s] = longest_flight(*intervals[-1], samples * sample_step)
 
     return TraceResult(
+        ball_mode_error=spectrum_errors(scene, w, spectrum, periodic, samples, periods),
         frequency_ratio=w,
         branch=branch,
         periods=periods,

@@ -42,8 +42,8 @@ def compile_law(law: str, exponent: float) -> str:
 
     raw = {**TINY_SCENE, "damping": {"law": law, "ratio": 0.01, "exponent": exponent}}
     scene = scene_from_dict(raw, source="<warm-up>")
-    run_sweep(scene)
-    run_sweep(scene, batched=False)
+    run_sweep(scene, ball_mode=True)
+    run_sweep(scene, batched=False, ball_mode=True)
     automatic = replace(scene.sweep, settle_periods=None, max_settle_periods=8)
     shooting = replace(scene.sweep, steady_state="shooting")
     for sweep in (automatic, shooting):
@@ -52,7 +52,7 @@ def compile_law(law: str, exponent: float) -> str:
     short = replace(scene.sweep, start=0.9, stop=0.92, step=0.01)
     run_branch(replace(scene, sweep=short))
     rk4 = replace(scene, solver=replace(scene.solver, method="rk4"))
-    run_sweep(rk4)
+    run_sweep(rk4, ball_mode=True)
     run_sweep(rk4, batched=False)
     run_sweep(replace(rk4, sweep=shooting))
     run_branch(replace(rk4, sweep=short))

@@ -284,6 +284,8 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
         jump_frequency_ratio=(("direction", "sigma"), jump),
         jump_frequency=(("direction", "sigma"), jump * constants.natural_frequency),
     )
+    if result.ball_mode_error is not None:
+        data["ball_mode_error"] = (base, result.ball_mode_error)
     title = "Stepped-sine sweep of a preloaded Hertzian contact"
     ds = _build(data, _coords(result, constants), global_attributes(scene, title, "sweep", history))
     _flags(ds, ("settled", "periodic"), YES_NO, "no yes")
@@ -337,6 +339,8 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
         frequency_ratio=((), w),
         frequency=((), w * f0),
     )
+    if result.ball_mode_error is not None:
+        data["ball_mode_error"] = ("sigma", result.ball_mode_error)
     order = result.harmonic_order
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),

@@ -83,10 +83,11 @@ class Kind:
 
 # --------------------------------------------------------------------------- drivers
 def _run_sweep(*args: Any, **kwargs: Any) -> Any:
-    """:func:`hertzsweep.drivers.sweep.run_sweep`."""
+    """:func:`hertzsweep.drivers.sweep.run_sweep`, each dwell read for the ball's own
+    mode (the sweep dataset's ``ball_mode_error``)."""
     from ..drivers.sweep import run_sweep
 
-    return run_sweep(*args, **kwargs)
+    return run_sweep(*args, ball_mode=True, **kwargs)
 
 
 def _run_trace(*args: Any, **kwargs: Any) -> Any:

@@ -1,0 +1,209 @@
+"""The ball's own mode: how far a single-degree-of-freedom response reaches it."""
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from hertzsweep.core.ballmode import (
+    THRESHOLD,
+    ball_damping,
+    mode_error,
+    period_spectrum,
+    transmission_change,
+)
+from hertzsweep.core.rig import derive, sphere_plane_stiffness
+from hertzsweep.drivers.sweep import run_sweep
+
+from .conftest import CONFIGS, PAPER_RIG, make_scene, run_cli
+
+
+def test_transmission_is_the_ball_between_two_contacts():
+    """H - 1 against the ball's equation solved directly: m_b z2'' = k (z1 - z2) + c (z1' -
+    z2') - k z2 - c z2' with z1 imposed, N = k z2 + c z2', N0 = (k z1 + c z1') / 2 (the
+    massless ball); c from the scene's zeta on the first mode (two dashpots in series)."""
+    m_b, k, omega = 0.067, 3.0e8, 1450.0
+    zeta = 0.0045
+    m = k / (2.0 * omega**2)  # the moving mass whose single-dof Omega this is
+    c = 4.0 * m * omega * zeta  # c / 2 on k / 2 and m: zeta
+    omega_b = np.sqrt(2.0 * k / m_b)
+    frequency = np.array([10.0, 300.0, 2000.0, 0.9 * omega_b / (2 * np.pi), 2e4])
+    w = 2 * np.pi * frequency
+    kc = k + 1j * w * c
+    z2 = kc / (2.0 * kc - m_b * w**2)  # per unit z1
+    direct = kc * z2 / (kc / 2.0)
+    zeta_b = ball_damping(zeta, omega / (2 * np.pi), omega_b / (2 * np.pi))
+    ours = 1.0 + transmission_change(frequency, omega_b / (2 * np.pi), zeta_b)
+    np.testing.assert_allclose(ours, direct, rtol=1e-12)  # algebra: rounding only
+
+
+def test_ball_damping_is_the_two_dof_modal_damping():
+    """zeta_b = zeta f_b / f0 is the damping ratio of the damped two-degree-of-freedom
+    system's upper mode (dashpots proportional to the contacts' stiffness), with f_b the
+    rig's ball mode: the complex eigenvalue's -Re/|.|, to rounding."""
+    from hertzsweep.core.config import scene_from_dict
+
+    rig = scene_from_dict({"rig": dict(PAPER_RIG)}, source="<test>").rig
+    constants = derive(rig)
+    k1 = sphere_plane_stiffness(rig)
+    delta = (constants.static_load / k1) ** (2.0 / 3.0)
+    k_t = 1.5 * k1 * np.sqrt(delta)
+    stiffness = np.array([[k_t, -k_t], [-k_t, 2.0 * k_t]])
+    mass = np.diag([rig.mass, rig.ball_mass])
+    zeta = 0.01
+    # the first mode's Omega of the 2-dof system sets beta (C = beta K): zeta_1 = beta w1/2
+    undamped = np.sort(np.linalg.eigvals(np.linalg.solve(mass, stiffness)).real)
+    w1, wb = np.sqrt(undamped)
+    beta = 2.0 * zeta / w1
+    inverse = np.linalg.inv(mass)
+    a = np.block([[np.zeros((2, 2)), np.eye(2)],
+                  [-inverse @ stiffness, -beta * inverse @ stiffness]])  # fmt: skip
+    upper = max(np.linalg.eigvals(a), key=abs)
+    modal = -upper.real / abs(upper)
+    assert wb / (2 * np.pi) == pytest.approx(constants.ball_mode_frequency, rel=1e-12)
+    assert ball_damping(zeta, w1 / (2 * np.pi), wb / (2 * np.pi)) == pytest.approx(modal, rel=1e-9)
+
+
+def test_mode_error_of_one_line_and_of_none():
+    """One line at f: e = |H(f) - 1|, which is r^2 / |1 - r^2 + 2 i zeta_b r|; the mean
+    (0 Hz) does not count; no oscillation gives NaN; no ball (NaN f_b) gives NaN."""
+    f_b, zeta_b = 5900.0, 0.1
+    for f in (100.0, 2950.0, 5900.0):
+        r = f / f_b
+        expected = r**2 / abs(1.0 - r**2 + 2j * zeta_b * r)
+        got = mode_error(np.array([0.7, 0.2]), np.array([0.0, f]), f_b, zeta_b)
+        assert got == pytest.approx(expected, rel=1e-13)
+    assert np.isnan(mode_error(np.array([1.0, 0.0]), np.array([0.0, 50.0]), f_b, zeta_b))
+    assert np.isnan(mode_error(np.array([0.3]), np.array([50.0]), np.nan, zeta_b))
+
+
+def test_period_spectrum_reads_the_harmonics():
+    """1 + 0.3 cos(theta) - 0.1 sin(5 theta) at 64 points: lines 1 .. 31, 0.3 at 1 and
+    0.1 at 5, nothing else (to rounding)."""
+    theta = 2 * np.pi * np.arange(64) / 64
+    force = 1.0 + 0.3 * np.cos(theta) - 0.1 * np.sin(5 * theta)
+    orders, amplitude = period_spectrum(np.column_stack([force, 2.0 * force]))
+    assert orders.tolist() == list(range(1, 32))
+    expected = np.zeros(31)
+    expected[0], expected[4] = 0.3, 0.1
+    np.testing.assert_allclose(amplitude, [expected, 2.0 * expected], atol=1e-15)
+
+
+def sweep_scene(sigma, settle=100, **rig):
+    return make_scene(
+        rig={**PAPER_RIG, **rig},
+        damping={"ratio": 0.01, "law": "contact", "exponent": 1.5},
+        excitation={"sigma": sigma},
+        sweep={"start": 0.55, "stop": 1.0, "step": 0.05, "settle_periods": settle,
+               "measure_periods": 8},
+        solver={"steps_per_period": 128},
+    )  # fmt: skip
+
+
+def test_linear_limit_is_the_transmission_at_the_excitation():
+    """sigma = 1e-4: the response is one line at w f0, so e = |H(w f0) - 1| (the harmonics
+    k >= 2 are of order sigma, their share of e about 1e-4 of it: the tolerance; 400
+    settling periods leave e^-25 of the transient at zeta = 1 %)."""
+    scene = sweep_scene([1e-4], settle=400)
+    result = run_sweep(scene, ball_mode=True)
+    constants = derive(scene.rig)
+    f = result.frequency_ratio * constants.natural_frequency
+    zeta_b = ball_damping(0.01, constants.natural_frequency, constants.ball_mode_frequency)
+    expected = np.abs(transmission_change(f, constants.ball_mode_frequency, zeta_b))
+    for d in range(2):
+        np.testing.assert_allclose(result.ball_mode_error[d, 0], expected, rtol=1e-3)
+
+
+def test_check_changes_no_reading_and_batched_equals_single():
+    """The check reads a copy of each dwell's end state: every other reading is the same
+    bit for bit with or without it; in lockstep or one sweep at a time the same e; one
+    period more per periodic dwell in the step count, NaN where the dwell does not
+    repeat."""
+    scene = sweep_scene([0.005, 0.078])
+    plain = run_sweep(scene)
+    checked = run_sweep(scene, ball_mode=True)
+    single = run_sweep(scene, batched=False, ball_mode=True)
+    for name in ("amplitude", "phase", "force_max", "force_min", "flight_tau", "settled"):
+        assert np.array_equal(getattr(plain, name), getattr(checked, name), equal_nan=True)
+    assert plain.ball_mode_error is None
+    assert np.array_equal(checked.ball_mode_error, single.ball_mode_error, equal_nan=True)
+    # read where the dwell repeats every period, and only there
+    assert np.array_equal(np.isfinite(checked.ball_mode_error), checked.periodic)
+    assert checked.periodic.sum() >= checked.periodic.size // 2
+    assert checked.steps == plain.steps + checked.periodic.sum() * 128
+
+
+def test_impacts_reach_further_than_a_smooth_response():
+    """At sigma = 7.8 % the contact is lost over the low end of the grid and the impacts
+    put force nearer the ball's mode: e exceeds the first line's |H - 1| ~ (f / f_b)^2
+    wherever the contact is lost, 4x where it is lost longest;
+    at 0.5 % e stays within 10 % of it (the harmonics k >= 2 add their share)."""
+    scene = sweep_scene([0.005, 0.078])
+    result = run_sweep(scene, ball_mode=True)
+    constants = derive(scene.rig)
+    f = result.frequency_ratio * constants.natural_frequency
+    zeta_b = ball_damping(0.01, constants.natural_frequency, constants.ball_mode_frequency)
+    first = np.abs(transmission_change(f, constants.ball_mode_frequency, zeta_b))
+    down = 1  # the down sweep stays on the upper branch, impacting, to the grid's low end
+    impacting = result.contact_loss_fraction[down, 1] > 0.1
+    assert impacting.sum() >= 3
+    e = result.ball_mode_error[down, 1]
+    assert np.all(e[impacting] > 1.2 * first[impacting])
+    longest = np.argmax(result.contact_loss_fraction[down, 1])
+    assert e[longest] > 4.0 * first[longest]
+    for d in range(2):
+        np.testing.assert_allclose(result.ball_mode_error[d, 0], first, rtol=0.1)
+    assert np.nanmax(result.ball_mode_error) < THRESHOLD  # the paper's rig: no warning
+
+
+def test_single_sphere_plane_has_no_ball():
+    scene = make_scene(
+        rig={**PAPER_RIG, "geometry": "sphere-plane"},
+        excitation={"sigma": [0.01]},
+        sweep={"start": 0.9, "stop": 1.0, "step": 0.05, "settle_periods": 20, "measure_periods": 4},
+    )
+    result = run_sweep(scene, ball_mode=True)
+    assert result.ball_mode_error is None
+
+
+def test_sweep_warns_once_where_the_model_stops_being_justified(tmp_path, capsys):
+    """A 3 kg ball puts its mode at 0.93 kHz (the 2-dof linearisation; 0.88 kHz with the
+    upper mass held), 4.0 f0: a smooth response at f0 already has e ~ (f0 / f_b)^2 = 6 %,
+    beyond the 0.5 % threshold: one warning line naming the
+    largest figure, exit 0, and the figure in the dataset; the default ball (5.9 kHz)
+    gives none."""
+    quick = ["--set", "sweep.settle_periods=300", "--set", "sweep.measure_periods=4",
+             "--set", "sweep.step=0.05", "--set", "solver.steps_per_period=64"]  # fmt: skip
+    heavy = tmp_path / "heavy.nc"
+    code, _, err = run_cli(["sweep", CONFIGS / "default.toml", "-o", heavy, "--quiet", *quick,
+                            "--set", "rig.ball_mass=3.0"], capsys)  # fmt: skip
+    assert code == 0
+    lines = [line for line in err.splitlines() if "warning" in line]
+    assert len(lines) == 1
+    assert lines[0].startswith("hertzsweep: warning: the response reaches the ball's own mode")
+    with xr.open_dataset(heavy) as ds:
+        e = ds.ball_mode_error.values
+        f_b = float(ds.attrs["ball_mode_frequency"])
+        assert f_b == pytest.approx(931.0, rel=1e-3)
+        assert f"{100 * np.nanmax(e):.2g} %" in lines[0]
+        assert np.nanmin(e) > THRESHOLD
+    light = ["sweep", CONFIGS / "default.toml", "-o", tmp_path / "light.nc", "--quiet", *quick]
+    code, _, err = run_cli(light, capsys)
+    assert code == 0 and "warning" not in err
+
+
+def test_trace_reads_the_same_figure_from_its_own_spectrum():
+    """A trace reaches w = 0.65 down the same grid as the down sweep and records one
+    period from where the sweep's check reads it: its spectrum (FFTW, every step) gives
+    the sweep's e to rounding; over 4 periods of the periodic response, to the
+    periodicity of the state (1e-6 relative)."""
+    from hertzsweep.drivers.trace import run_trace
+
+    scene = sweep_scene([0.078])
+    sweep = run_sweep(scene, ball_mode=True)
+    at = int(np.argmin(np.abs(sweep.frequency_ratio - 0.65)))
+    expected = sweep.ball_mode_error[sweep.directions.index("down"), 0, at]
+    assert sweep.contact_loss_fraction[1, 0, at] > 0.5  # impacting
+    one = run_trace(scene, 0.65, periods=1, branch="upper")
+    assert one.ball_mode_error[0] == pytest.approx(expected, rel=1e-10)
+    four = run_trace(scene, 0.65, periods=4, branch="upper")
+    assert four.ball_mode_error[0] == pytest.approx(expected, rel=1e-6)
