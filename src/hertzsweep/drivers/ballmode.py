@@ -1,11 +1,13 @@
-"""A sweep's dwells read once more for the ball's own mode (:mod:`hertzsweep.core.ballmode`).
+"""A sweep's dwells and a trace's record read for the ball's own mode
+(:mod:`hertzsweep.core.ballmode`).
 
-After a dwell, one more period is integrated from a copy of its end state (the state the
-sweep carries on is not touched, so every other reading is the same bit for bit), N/F_s
-is recorded at each of its N steps, and its harmonics 1 .. N/2 - 1 give the figure ``e``.
-One period suffices where the dwell reached its steady state (a periodic response has
-exactly these lines); where it did not, ``e`` describes that one period. The period is
-counted in the run's integration steps: one more per dwell, 1/321 of the default dwell.
+A sweep keeps each dwell's end state; once it has run, every dwell whose response
+repeats every period is integrated one period more from a copy of that state, all in
+one compiled loop (the states the sweep carried are not touched, so every other reading
+is the same bit for bit), N/F_s is recorded at each of the N steps, and its harmonics
+1 .. N/2 - 1 give the figure ``e``. A dwell that does not repeat is left NaN: one period
+of it holds lines that are not the response's. The periods are counted in the run's
+integration steps (1/321 of the default dwell). A trace reads its own spectrum.
 """
 
 from __future__ import annotations
@@ -81,8 +83,9 @@ def spectrum_errors(
     periods: int,
 ) -> np.ndarray | None:
     """``e`` of a trace's spectra (float[S, M/2 + 1] of M = ``samples`` samples over
-    ``periods`` periods, line j at order j / periods; the Nyquist line of an even M left out, as in
-    a sweep's, and read in parts so that a long record's takes no memory of its size):
+    ``periods`` periods, line j at order j / periods; the Nyquist line of an even M left
+    out, as in a sweep's; read in parts, so that a long record's takes no memory of its
+    size):
     None without a ball; NaN where the record does not repeat every period (``periodic``
     false: its leakage is not the response's) and where the spectrum stops below the
     ball's mode (coarse samples: the band that matters is not in it)."""

@@ -131,11 +131,7 @@ def find_jump(
 
 
 def run_direction(
-    scene: Scene,
-    sigma: float,
-    direction: str,
-    result: SweepResult,
-    progress: Progress | None,
+    scene: Scene, sigma: float, direction: str, result: SweepResult, progress: Progress | None
 ) -> Oscillator:
     """One stepped-sine sweep at one sigma, from rest, with the scene's steady-state
     strategy, stored into ``result`` as its dwells finish. Returns the oscillator (its step
