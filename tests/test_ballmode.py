@@ -230,3 +230,18 @@ def test_every_method_and_steady_state_reads_the_same_figure():
     np.testing.assert_allclose(run_sweep(shooting, ball_mode=True).ball_mode_error, settled,
                                rtol=1e-6)  # fmt: skip
     np.testing.assert_allclose(run_sweep(rk4, ball_mode=True).ball_mode_error, settled, rtol=1e-4)
+
+
+def test_trace_warns_from_its_spectrum(tmp_path, capsys):
+    """The trace's figure (its own spectrum) warns as the sweep's does, naming its sigma
+    and its one w, without a direction."""
+    out = tmp_path / "heavy-trace.nc"
+    code, _, err = run_cli(["trace", CONFIGS / "default.toml", "-w", "1.0", "-o", out, "--quiet",
+                            "--set", "rig.ball_mass=3.0"], capsys)  # fmt: skip
+    assert code == 0
+    (line,) = [line for line in err.splitlines() if "warning" in line]
+    with xr.open_dataset(out) as ds:
+        e = ds.ball_mode_error.values
+        s = int(np.nanargmax(e))
+        assert line.endswith("neglects it there")
+        assert f"{100 * e[s]:.2g} % at sigma = {float(ds.sigma[s]):g}, w = 1 (above" in line
