@@ -47,6 +47,29 @@ def test_ball_mode():
     assert c.ball_mode_frequency == pytest.approx(5500, rel=0.1)
 
 
+def test_ball_mode_is_the_linearised_two_dof_system():
+    """The upper eigenfrequency of m on the ball, the upper contact at F_s and the lower
+    at F_s + m_b g (each k_t = 3/2 k1 delta^(1/2)), written out as the characteristic
+    polynomial's larger root: to rounding (1e-12)."""
+    rig = RigConfig(**{**PAPER, "ball_mass": 0.067})
+    e_star = 210e9 / (2 * (1 - 0.29**2))
+    k1 = 4 / 3 * e_star * math.sqrt(12.7e-3)
+    upper = 1.5 * k1 * (110.0 / k1) ** (1 / 3)
+    lower = 1.5 * k1 * ((110.0 + 0.067 * 9.81) / k1) ** (1 / 3)
+    m, mb = 11.4, 0.067
+    # det([[ku - m w2, -ku], [-ku, ku + kl - mb w2]]) = 0
+    a, b, c = m * mb, -(m * (upper + lower) + mb * upper), upper * lower
+    w2 = (-b + math.sqrt(b * b - 4 * a * c)) / (2 * a)
+    expected = math.sqrt(w2) / (2 * math.pi)
+    assert derive(rig).ball_mode_frequency == pytest.approx(expected, rel=1e-12)
+    # the ball's weight on the lower contact: 0.05 % on the mode, not nothing
+    same = 1.5 * k1 * (110.0 / k1) ** (1 / 3)
+    b0 = -(m * 2 * same + mb * same)
+    w0 = (-b0 + math.sqrt(b0 * b0 - 4 * a * same * same)) / (2 * a)
+    ratio = derive(rig).ball_mode_frequency / (math.sqrt(w0) / (2 * math.pi))
+    assert 1.0003 < ratio < 1.0015
+
+
 def test_single_sphere_plane_and_defaults():
     rig = RigConfig(**{**PAPER, "geometry": "sphere-plane"})
     e_star = 210e9 / (2 * (1 - 0.29**2))

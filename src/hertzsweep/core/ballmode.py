@@ -11,7 +11,9 @@ mass's motion z1 imposed (m >> m_b), the ball's equation ``m_b z2'' = k_t (z1 - 
 
 where ``N0 = (k_t z1 + c z1') / 2`` is what the massless ball transmits (the model's force:
 two contacts in series) and ``f_b^2 = 2 k_t / m_b / (2 pi)^2`` the ball's mode
-(``hertzsweep.core.rig``'s ``ball_mode_frequency``, the same linearisation with m finite).
+(``hertzsweep.core.rig``'s ``ball_mode_frequency``, the same linearisation with m finite
+and the ball's weight on the lower contact, whose stiffness it raises by 0.2 % on the
+paper's rig: the figure takes the rig's f_b).
 The two dashpots in series are the model's one (``c / 2`` on ``k_t / 2`` gives the scene's
 zeta on the first mode), so the ball's mode has ``zeta_b = zeta f_b / f0``: the damping
 is proportional to the stiffness, and the higher mode is the more damped one.
