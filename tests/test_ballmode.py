@@ -246,3 +246,24 @@ def test_trace_warns_from_its_spectrum(tmp_path, capsys):
         s = int(np.nanargmax(e))
         assert line.endswith("neglects it there")
         assert f"{100 * e[s]:.2g} % at sigma = {float(ds.sigma[s]):g}, w = 1 (above" in line
+
+
+def test_too_few_samples_to_see_the_mode_read_nan():
+    """At 16 steps a period the harmonics stop at order 7, 1.7 kHz at f0, below the ball's
+    5.9 kHz: a sweep's and a trace's figure are NaN there (not the smooth part alone),
+    and nothing warns."""
+    from hertzsweep.drivers.trace import run_trace
+
+    coarse = make_scene(
+        excitation={"sigma": [0.01]},
+        sweep={"start": 0.95, "stop": 1.0, "step": 0.05, "settle_periods": 300},
+        solver={"steps_per_period": 16},
+    )
+    result = run_sweep(coarse, ball_mode=True)
+    assert result.periodic.all()  # read, and NaN for the lines, not for the transient
+    assert np.all(np.isnan(result.ball_mode_error))
+    fine = replace(coarse, solver=replace(coarse.solver, steps_per_period=64))
+    assert np.all(np.isfinite(run_sweep(fine, ball_mode=True).ball_mode_error))
+    trace = run_trace(fine, 1.0, periods=4, samples_per_period=16)
+    assert np.all(np.isnan(trace.ball_mode_error))
+    assert np.all(np.isfinite(run_trace(fine, 1.0, periods=4).ball_mode_error))

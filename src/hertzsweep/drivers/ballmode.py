@@ -53,7 +53,8 @@ class BallModeCheck:
     ) -> np.ndarray:
         """``e`` of T dwells at levels ``sigma`` and frequency ratios ``frequency_ratio``
         (float[T]) that ended at the method's states ``end`` (float[T, 2]), one more
-        period each; the steps are added to ``oscillator.steps``."""
+        period each (NaN where its harmonics stop below the ball's mode: too few steps a
+        period to see it); the steps are added to ``oscillator.steps``."""
         count = end.shape[0]
         n = oscillator.steps_per_period
         record = np.zeros((n, 4, count))
@@ -68,7 +69,9 @@ class BallModeCheck:
         scheme.check_status(status, float(inputs.sigma[t]), float(frequency_ratio[t]), n)
         orders, amplitude = period_spectrum(record[:, 2, :])
         frequency = np.outer(frequency_ratio * self.natural_frequency, orders)
-        return mode_error(amplitude, frequency, self.ball_mode, self.zeta_ball)
+        errors = mode_error(amplitude, frequency, self.ball_mode, self.zeta_ball)
+        # as a trace's: NaN where the lines stop below the ball's mode (coarse steps)
+        return np.where(frequency[:, -1] < self.ball_mode, np.nan, errors)
 
 
 LINES_PER_PART = 1 << 12  # a long trace's spectrum is read in parts of this many lines
