@@ -35,20 +35,17 @@ the agreement asked of the two models on a response without loss of contact (H1 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .config import RigConfig
-from .rig import derive
 
 THRESHOLD = 0.005  # relative RMS change of N/F_s beyond which a run warns
 
 
 def has_ball_mode(rig: RigConfig) -> bool:
-    """Whether the rig has a ball whose mode a sweep reads (a double sphere-plane; a
-    single sphere-plane has none)."""
-    return math.isfinite(derive(rig).ball_mode_frequency)
+    """Whether the rig has a ball whose mode a sweep reads: a double sphere-plane (where
+    :func:`~hertzsweep.core.rig.derive` gives the mode; a single sphere-plane has none)."""
+    return rig.geometry == "double-sphere-plane"
 
 
 def check_periods(rig: RigConfig) -> int:
@@ -70,21 +67,12 @@ def transmission_change(frequency: np.ndarray, ball_mode: float, zeta_ball: floa
         return r**2 / (1.0 + 2j * zeta_ball * r - r**2)
 
 
-def mode_error(
-    amplitude: np.ndarray, frequency: np.ndarray, ball_mode: float, zeta_ball: float
-) -> np.ndarray:
-    """The figure e of the module notes for spectra ``amplitude`` (float[..., L], peak)
-    at ``frequency`` (float[L] or broadcast, Hz; lines at 0 Hz are left out): float[...].
-    NaN where the spectrum holds no oscillation, or without a ball mode (``ball_mode``
-    NaN, a single sphere-plane)."""
-    return error_of(*power_sums(amplitude, frequency, ball_mode, zeta_ball))
-
-
 def power_sums(
     amplitude: np.ndarray, frequency: np.ndarray, ball_mode: float, zeta_ball: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(sum_k A_k^2, sum_k A_k^2 |H(f_k) - 1|^2)`` over the lines above 0 Hz: the sums of
-    :func:`mode_error`, which add up over parts of a long spectrum (:func:`error_of`)."""
+    """``(sum_k A_k^2, sum_k A_k^2 |H(f_k) - 1|^2)`` over the lines of spectra ``amplitude``
+    (float[..., L], peak) at ``frequency`` (broadcast, Hz) above 0 Hz: the sums of the
+    figure e, which add up over parts of a long spectrum (:func:`error_of`)."""
     amplitude = np.asarray(amplitude, dtype=float)
     frequency = np.broadcast_to(np.asarray(frequency, dtype=float), amplitude.shape)
     power = np.where(frequency > 0.0, amplitude**2, 0.0)
@@ -93,18 +81,10 @@ def power_sums(
 
 
 def error_of(total: np.ndarray, changed: np.ndarray) -> np.ndarray:
-    """e from the two sums of :func:`power_sums` (NaN where ``total`` is 0 or NaN)."""
+    """The figure e from the two sums of :func:`power_sums`: NaN where ``total`` is 0 (no
+    oscillation) or NaN (no ball mode: ``ball_mode`` NaN, a single sphere-plane)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.sqrt(np.where(total > 0.0, changed / total, np.nan))
-
-
-def period_spectrum(force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(orders, amplitudes)`` of N/F_s sampled at N points over one period (``force``
-    float[N, ...]): the harmonics 1 .. N/2 - 1 (peak amplitudes; the Nyquist line, which
-    holds the sampling's own alias, is left out)."""
-    n = force.shape[0]
-    lines = np.fft.rfft(force, axis=0)[1 : (n + 1) // 2]
-    return np.arange(1, lines.shape[0] + 1), np.moveaxis(2.0 * np.abs(lines) / n, 0, -1)
 
 
 def warning_text(error: float, where: str, ball_mode: float) -> str:
@@ -122,8 +102,6 @@ __all__ = [
     "check_periods",
     "error_of",
     "has_ball_mode",
-    "mode_error",
-    "period_spectrum",
     "power_sums",
     "transmission_change",
     "warning_text",

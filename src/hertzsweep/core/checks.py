@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from .ballmode import check_periods
+from .ballmode import check_periods, has_ball_mode
 from .config import (
     DampingConfig,
     ExcitationConfig,
@@ -321,7 +321,7 @@ def result_bytes(scene: Scene, points: int) -> int:
     :data:`RESULT_COPIES` times; the grid's coordinates; the per-period tables."""
     trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
     harmonics = len(scene.lockin.harmonics)
-    ball = 3 * check_periods(scene.rig)  # e and the state (q_prev, q) of each dwell
+    ball = 3 if has_ball_mode(scene.rig) else 0  # e and the state (q_prev, q) a dwell
     per_dwell = (2 * harmonics + SCALAR_READINGS + ball) * FLOAT + FLAGS
     tables = 2 * scene.solver.steps_per_period * FLOAT  # sin and cos of one period
     return RESULT_COPIES * (trajectories * points * per_dwell + 3 * points * FLOAT) + tables

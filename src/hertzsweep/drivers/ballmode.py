@@ -14,27 +14,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.ballmode import (
-    ball_damping,
-    error_of,
-    has_ball_mode,
-    mode_error,
-    period_spectrum,
-    power_sums,
-)
+from ..core.ballmode import ball_damping, error_of, has_ball_mode, power_sums
 from ..core.config import Scene
 from ..core.rig import derive
 from ..kernels import integrate, scheme
 from .oscillator import Oscillator, drive
+from .spectrum import AmplitudeSpectrum
 
-
-def checked(scene: Scene) -> bool:
-    """Whether the scene's rig has a ball whose mode a sweep reads."""
-    return has_ball_mode(scene.rig)
+LINES_PER_PART = 1 << 12  # a long trace's spectrum is read in parts of this many lines
 
 
 class BallModeCheck:
-    """The figure ``e`` of dwells of one scene (:meth:`errors`)."""
+    """The figure ``e`` of a scene's spectra (:meth:`of_spectra`), of a sweep's dwells
+    (:meth:`errors`)."""
 
     def __init__(self, scene: Scene) -> None:
         constants = derive(scene.rig)
@@ -43,6 +35,28 @@ class BallModeCheck:
         self.zeta_ball = ball_damping(
             scene.damping.ratio, constants.natural_frequency, constants.ball_mode_frequency
         )
+
+    def of_spectra(
+        self, spectrum: np.ndarray, line_step: np.ndarray, samples: int, periodic: np.ndarray
+    ) -> np.ndarray:
+        """``e`` of amplitude spectra (float[S, M/2 + 1] of M = ``samples`` samples,
+        :class:`~.spectrum.AmplitudeSpectrum`'s convention), line j of spectrum s at
+        ``j line_step[s]`` Hz; the Nyquist line of an even M is left out, and the lines are
+        read in parts, so that a long record's take no memory of its size. NaN where the
+        record does not repeat every period (``periodic`` false: its leakage is not the
+        response's) and where the lines stop below the ball's mode (too few samples a
+        period: the band that matters is not in them)."""
+        lines = (samples + 1) // 2  # the bins below the Nyquist frequency
+        total = np.zeros(spectrum.shape[0])
+        changed = np.zeros(spectrum.shape[0])
+        for start in range(0, lines, LINES_PER_PART):
+            stop = min(start + LINES_PER_PART, lines)
+            frequency = np.outer(line_step, np.arange(start, stop))
+            part = power_sums(spectrum[:, start:stop], frequency, self.ball_mode, self.zeta_ball)
+            total += part[0]
+            changed += part[1]
+        seen = (lines - 1) * np.asarray(line_step) >= self.ball_mode
+        return np.where(periodic & seen, error_of(total, changed), np.nan)
 
     def errors(
         self,
@@ -53,8 +67,7 @@ class BallModeCheck:
     ) -> np.ndarray:
         """``e`` of T dwells at levels ``sigma`` and frequency ratios ``frequency_ratio``
         (float[T]) that ended at the method's states ``end`` (float[T, 2]), one more
-        period each (NaN where its harmonics stop below the ball's mode: too few steps a
-        period to see it); the steps are added to ``oscillator.steps``."""
+        period each (:meth:`of_spectra`); the steps are added to ``oscillator.steps``."""
         count = end.shape[0]
         n = oscillator.steps_per_period
         record = np.zeros((n, 4, count))
@@ -67,14 +80,10 @@ class BallModeCheck:
         oscillator.steps += count * n
         t = max(bad, 0)
         scheme.check_status(status, float(inputs.sigma[t]), float(frequency_ratio[t]), n)
-        orders, amplitude = period_spectrum(record[:, 2, :])
-        frequency = np.outer(frequency_ratio * self.natural_frequency, orders)
-        errors = mode_error(amplitude, frequency, self.ball_mode, self.zeta_ball)
-        # as a trace's: NaN where the lines stop below the ball's mode (coarse steps)
-        return np.where(frequency[:, -1] < self.ball_mode, np.nan, errors)
-
-
-LINES_PER_PART = 1 << 12  # a long trace's spectrum is read in parts of this many lines
+        analyser = AmplitudeSpectrum(n, backend="numpy")  # a sweep does not load FFTW
+        spectrum = np.array([analyser.amplitude(record[:, 2, t]) for t in range(count)])
+        line_step = np.asarray(frequency_ratio) * self.natural_frequency
+        return self.of_spectra(spectrum, line_step, n, np.ones(count, dtype=bool))
 
 
 def spectrum_errors(
@@ -86,33 +95,13 @@ def spectrum_errors(
     periods: int,
 ) -> np.ndarray | None:
     """``e`` of a trace's spectra (float[S, M/2 + 1] of M = ``samples`` samples over
-    ``periods`` periods, line j at order j / periods; the Nyquist line of an even M left
-    out, as in a sweep's; read in parts, so that a long record's takes no memory of its
-    size):
-    None without a ball; NaN where the record does not repeat every period (``periodic``
-    false: its leakage is not the response's) and where the spectrum stops below the
-    ball's mode (coarse samples: the band that matters is not in it)."""
-    if not checked(scene):
+    ``periods`` periods, line j at order j / periods; :meth:`BallModeCheck.of_spectra`),
+    None where the rig has no ball."""
+    if not has_ball_mode(scene.rig):
         return None
-    constants = derive(scene.rig)
-    step = frequency_ratio * constants.natural_frequency / periods  # Hz between lines
-    lines = samples // 2 if samples % 2 == 0 else samples // 2 + 1  # below the Nyquist
-    if (lines - 1) * step < constants.ball_mode_frequency:
-        return np.full(spectrum.shape[0], np.nan)
-    zeta_ball = ball_damping(
-        scene.damping.ratio, constants.natural_frequency, constants.ball_mode_frequency
-    )
-    total = np.zeros(spectrum.shape[0])
-    changed = np.zeros(spectrum.shape[0])
-    for start in range(0, lines, LINES_PER_PART):
-        stop = min(start + LINES_PER_PART, lines)
-        frequency = np.arange(start, stop) * step
-        parts = power_sums(
-            spectrum[:, start:stop], frequency, constants.ball_mode_frequency, zeta_ball
-        )
-        total += parts[0]
-        changed += parts[1]
-    return np.where(periodic, error_of(total, changed), np.nan)
+    check = BallModeCheck(scene)
+    step = frequency_ratio * check.natural_frequency / periods  # Hz between lines
+    return check.of_spectra(spectrum, np.full(spectrum.shape[0], step), samples, periodic)
 
 
-__all__ = ["BallModeCheck", "checked", "spectrum_errors"]
+__all__ = ["BallModeCheck", "spectrum_errors"]

@@ -13,11 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.ballmode import has_ball_mode
 from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import HertzsweepError, Interrupted
 from ..kernels import integrate, scheme
-from .ballmode import BallModeCheck, checked
+from .ballmode import BallModeCheck
 from .oscillator import Block, Oscillator, drive
 from .readings import HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
 from .steady import strategy
@@ -183,7 +184,7 @@ def run_sweep(
         The state became non-finite.
     """
     check_stability(scene)
-    ball = BallModeCheck(scene) if ball_mode and checked(scene) else None
+    ball = BallModeCheck(scene) if ball_mode and has_ball_mode(scene.rig) else None
     if batched and lockstep(scene):
         return _run_lockstep(scene, progress, ball)
     result = SweepResult.empty(scene, ball is not None)
