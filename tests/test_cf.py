@@ -285,7 +285,7 @@ def test_config_json_is_the_whole_scene(kind, files):
     attrs = open_dataset(files[kind]).attrs
     scene = load_scene(files[kind].parent / "scene.toml")
     config = json.loads(attrs["config_json"])
-    assert list(config) == ["rig", "damping", "excitation", "sweep", "solver", "lockin"]
+    assert list(config) == ["rig", "damping", "excitation", "sweep", "solver", "lockin", "model"]
     assert scene_from_dict(config, source=scene.source) == scene  # the same scene, resolved
     assert config["rig"]["static_load"] == 110.0 and config["sweep"]["settle_periods"] == 40
 

@@ -83,6 +83,7 @@ def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
     scene, figures = load_checked_scene(scene_file, overrides)
     steps = scene.solver.steps_per_period
     limit = figures.stability_limit
+    mode = ", omega_max of the ball's own mode" if scene.model.kind == "ball" else ""
     click.echo(
         f"{scene_file}: ok: {len(scene.sweep.directions)} direction(s) x "
         f"{len(scene.excitation.sigma)} sigma x {figures.points} frequencies "
@@ -90,7 +91,7 @@ def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
         f"{figures.periods_per_dwell} periods a dwell); "
         f"steps_per_period {steps} is {figures.stability_margin:.1f}x the stability limit "
         f"{limit:.1f} of {scene.solver.method} (h omega_max < "
-        f"{STABILITY[scene.solver.method]:.3g}); {figures.steps:.3g} integration steps of the "
-        f"budget {figures.max_steps:.3g}; results {format_size(figures.memory)} of the budget "
-        f"{format_size(figures.memory_budget)}"
+        f"{STABILITY[scene.solver.method]:.3g}{mode}); {figures.steps:.3g} integration steps "
+        f"of the budget {figures.max_steps:.3g}; results {format_size(figures.memory)} of the "
+        f"budget {format_size(figures.memory_budget)}"
     )

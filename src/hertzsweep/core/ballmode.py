@@ -37,21 +37,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import RigConfig
+from .config import Scene
 
 THRESHOLD = 0.005  # relative RMS change of N/F_s beyond which a run warns
 
 
-def has_ball_mode(rig: RigConfig) -> bool:
-    """Whether the rig has a ball whose mode a sweep reads: a double sphere-plane (where
-    :func:`~hertzsweep.core.rig.derive` gives the mode; a single sphere-plane has none)."""
-    return rig.geometry == "double-sphere-plane"
+def has_ball_mode(scene: Scene) -> bool:
+    """Whether a run of the scene reads the ball's mode: the single model of a double
+    sphere-plane (where :func:`~hertzsweep.core.rig.derive` gives the mode; a single
+    sphere-plane has none, and the ball model integrates the mode itself)."""
+    return scene.rig.geometry == "double-sphere-plane" and scene.model.kind == "single"
 
 
-def check_periods(rig: RigConfig) -> int:
+def check_periods(scene: Scene) -> int:
     """The periods a sweep integrates per dwell for the check: one from each dwell's end
-    state where the rig has a ball (``hertzsweep.drivers.ballmode``), else none."""
-    return 1 if has_ball_mode(rig) else 0
+    state where it reads the ball's mode (``hertzsweep.drivers.ballmode``), else none."""
+    return 1 if has_ball_mode(scene) else 0
 
 
 def ball_damping(zeta: float, natural_frequency: float, ball_mode_frequency: float) -> float:

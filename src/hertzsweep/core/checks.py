@@ -284,7 +284,7 @@ def check_steps(scene: Scene, points: int) -> int:
     naming the factor furthest above the default scene's (its key)."""
     sweep = scene.sweep
     trajectories = len(sweep.directions) * len(scene.excitation.sigma)
-    periods = periods_per_dwell(sweep, check_periods(scene.rig))
+    periods = periods_per_dwell(sweep, check_periods(scene))
     steps_per_period = scene.solver.steps_per_period
     total = points * trajectories * periods * steps_per_period
     budget = max_steps(scene)
@@ -321,7 +321,7 @@ def result_bytes(scene: Scene, points: int) -> int:
     :data:`RESULT_COPIES` times; the grid's coordinates; the per-period tables."""
     trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
     harmonics = len(scene.lockin.harmonics)
-    ball = 3 if has_ball_mode(scene.rig) else 0  # e and the state (q_prev, q) a dwell
+    ball = 3 if has_ball_mode(scene) else 0  # e and the state (q_prev, q) a dwell
     per_dwell = (2 * harmonics + SCALAR_READINGS + ball) * FLOAT + FLAGS
     tables = 2 * scene.solver.steps_per_period * FLOAT  # sin and cos of one period
     return RESULT_COPIES * (trajectories * points * per_dwell + 3 * points * FLOAT) + tables
@@ -395,7 +395,7 @@ def preflight(scene: Scene) -> Figures:
     return Figures(
         points=int(grid.size),
         trajectories=len(scene.sweep.directions) * len(scene.excitation.sigma),
-        periods_per_dwell=periods_per_dwell(scene.sweep, check_periods(scene.rig)),
+        periods_per_dwell=periods_per_dwell(scene.sweep, check_periods(scene)),
         steps=steps,
         max_steps=max_steps(scene),
         memory=memory,

@@ -33,6 +33,7 @@ DAMPING_LAWS = ("viscous", "contact")
 DIRECTIONS = ("up", "down")
 STEADY_STATE_METHODS = ("settle", "shooting")
 SOLVER_METHODS = ("central-difference", "rk4")  # hertzsweep.kernels.methods.METHODS
+MODEL_KINDS = ("single", "ball")  # hertzsweep.kernels.methods.MODELS
 # The largest input file (scene, rig, study) read: the largest shipped file is under 2 kB
 # and a study's grid of a thousand values is under 20 kB, so 1 MiB leaves room for any
 # real file while a wrong path (a log, an image, a disk image) is refused before it is read.
@@ -137,6 +138,15 @@ class SolverConfig:
 
 
 @dataclass(frozen=True)
+class ModelConfig:
+    """Which equations are integrated: ``"single"`` (eq. 1/8/11, one degree of freedom)
+    or ``"ball"`` (the moving mass on the ball between two Hertz contacts, two degrees of
+    freedom: :mod:`hertzsweep.core.ballmodel`)."""
+
+    kind: str = "single"
+
+
+@dataclass(frozen=True)
 class LockinConfig:
     """Harmonics of N/F_s read by the lock-in amplifier."""
 
@@ -153,6 +163,7 @@ class Scene:
     sweep: SweepConfig = SweepConfig()
     solver: SolverConfig = SolverConfig()
     lockin: LockinConfig = LockinConfig()
+    model: ModelConfig = ModelConfig()
     source: str = "<scene>"
     # the files the scene was read from (the scene, then its rig file if any): an output
     # path must not be one of them; not part of the scene's value
@@ -161,7 +172,7 @@ class Scene:
     def attributes(self) -> dict[str, Any]:
         """Every resolved value as flat ``table_key`` attributes (netCDF-friendly)."""
         out: dict[str, Any] = {}
-        for table in ("rig", "damping", "excitation", "sweep", "solver", "lockin"):
+        for table in ("rig", "damping", "excitation", "sweep", "solver", "lockin", "model"):
             for key, value in asdict(getattr(self, table)).items():
                 if (table, key) in BUDGET_KEYS:
                     continue
@@ -333,6 +344,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "max_steps": _positive_int,
     },
     "lockin": {"harmonics": _harmonics},
+    "model": {"kind": lambda s, k, v: _string(s, k, v, MODEL_KINDS)},
 }
 REQUIRED_RIG_KEYS = ("ball_radius", "youngs_modulus", "poisson_ratio", "mass")
 BUDGET_KEYS = {("solver", "max_steps")}  # limits of a run, not settings of its result
@@ -343,6 +355,7 @@ CLASSES = {
     "sweep": SweepConfig,
     "solver": SolverConfig,
     "lockin": LockinConfig,
+    "model": ModelConfig,
 }
 
 
@@ -435,7 +448,32 @@ def scene_from_dict(
             "sweep.step",
             f"step {sweep.step} is larger than the range {sweep.stop - sweep.start:g}",
         )
-    return Scene(rig=rig, source=source, **tables)
+    scene = Scene(rig=rig, source=source, **tables)
+    check_model(scene)
+    return scene
+
+
+BALL_MODEL_NEEDS = (  # (table, key, value) a "ball" scene must keep, and why
+    ("rig", "geometry", "double-sphere-plane", "the ball sits between two planes"),
+    ("solver", "method", "central-difference", "its scheme is the central difference"),
+    ("sweep", "steady_state", "settle", "its steady state is reached by settling"),
+)
+
+
+def check_model(scene: Scene) -> None:
+    """Refuse a ``model.kind`` the rest of the scene cannot run (:data:`BALL_MODEL_NEEDS`:
+    the two-degree-of-freedom model integrates with the central difference and settles
+    to its steady state; shooting and the rk4 method serve the single model)."""
+    if scene.model.kind != "ball":
+        return
+    for table, key, value, why in BALL_MODEL_NEEDS:
+        given = getattr(getattr(scene, table), key)
+        if given != value:
+            raise ConfigError(
+                scene.source,
+                "model.kind",
+                f"'ball' needs {table}.{key} = {value!r} ({why}), got {given!r}",
+            )
 
 
 # --------------------------------------------------------------------------- files

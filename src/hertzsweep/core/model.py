@@ -14,13 +14,16 @@ limit of the explicit scheme, checked before any run.
 Stability of the explicit methods (undamped, linearised): ``h omega_max < b`` with
 ``omega_max^2 = dR/dq = d^(1/2)`` at the largest compression the scene reaches, and the
 method's bound b on the imaginary axis (:data:`STABILITY`): 2 for the central difference,
-``2 sqrt(2)`` for RK4.
+``2 sqrt(2)`` for RK4. The ball model's omega_max is its second (the ball's own) mode at
+that compression of both contacts
+(:meth:`~hertzsweep.core.ballmodel.BallModel.stability_frequency`).
 """
 
 from __future__ import annotations
 
 import math
 
+from .ballmodel import BallModel
 from .config import Scene
 
 STABILITY = {"central-difference": 2.0, "rk4": 2.0 * math.sqrt(2.0)}
@@ -64,6 +67,9 @@ def stability_limit(scene: Scene, lowest: float | None = None) -> float:
     """
     w_min = float(scene.sweep.frequency_ratios.min()) if lowest is None else float(lowest)
     om = omega_max(max(scene.excitation.sigma), scene.damping.ratio)
+    if scene.model.kind == "ball":  # the ball's own mode, the stiffer, sets it
+        force = force_bound(max(scene.excitation.sigma), scene.damping.ratio)
+        om = BallModel.of(scene).stability_frequency(force)
     return 2.0 * math.pi * om / (STABILITY[scene.solver.method] * w_min)
 
 
@@ -76,8 +82,9 @@ def stability_reason(scene: Scene, lowest: float | None = None) -> str | None:
         return None
     w_min = scene.sweep.frequency_ratios.min() if lowest is None else lowest
     advice = f"use at least {math.floor(limit) + 1}" if math.isfinite(limit) else "none is"
+    of = "the ball's own mode, " if scene.model.kind == "ball" else ""
     return (
-        f"{steps} is at or below the stability limit {limit:.1f} of {scene.solver.method} "
+        f"{steps} is at or below the stability limit {limit:.1f} of {of}{scene.solver.method} "
         f"(h omega_max >= {STABILITY[scene.solver.method]:.3g} at w = {w_min:g}); {advice}"
     )
 

@@ -47,6 +47,7 @@ import numpy as np
 from ..core.config import SOLVER_METHODS, Scene
 from ..core.model import stability_limit
 from ..errors import ConfigError, HertzsweepError
+from ..kernels.methods import MODELS
 from .sweep import SweepResult, run_sweep
 
 DEFAULT_METHOD = "central-difference"  # a Setting's method when none is named (older files)
@@ -262,6 +263,7 @@ def build_ladder(
     reference must be above it.
     """
     methods = _ladder_methods(scene, methods)
+    shooting = shooting and scene.model.kind == "single"  # the ball model settles only
     raw_settle = settle if settle is not None else (QUICK_SETTLE if quick else DEFAULT_SETTLE)
     settles = [s if isinstance(s, tuple) else parse_settle(s) for s in raw_settle]
     base = Setting.of_scene(scene)
@@ -316,14 +318,16 @@ def build_ladder(
 
 
 def _ladder_methods(scene: Scene, methods: Sequence[str] | None) -> tuple[str, ...]:
-    """The ladder's methods, the scene's first (every method by default)."""
-    chosen = tuple(dict.fromkeys(methods if methods is not None else SOLVER_METHODS))
-    unknown = [m for m in chosen if m not in SOLVER_METHODS]
+    """The ladder's methods, the scene's first (every method of its model by default)."""
+    available = tuple(MODELS[scene.model.kind])
+    chosen = tuple(dict.fromkeys(methods if methods is not None else available))
+    unknown = [m for m in chosen if m not in available]
     if unknown or not chosen:
+        of = f" of model.kind = {scene.model.kind!r}" if scene.model.kind != "single" else ""
         raise ConfigError(
             "--methods",
             "",
-            f"expected some of {', '.join(SOLVER_METHODS)}, got {','.join(unknown)!r}",
+            f"expected some of {', '.join(available)}{of}, got {','.join(unknown)!r}",
         )
     own = scene.solver.method
     return tuple(sorted(chosen, key=lambda m: m != own))

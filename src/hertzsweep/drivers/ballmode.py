@@ -97,7 +97,7 @@ def spectrum_errors(
     """``e`` of a trace's spectra (float[S, M/2 + 1] of M = ``samples`` samples over
     ``periods`` periods, line j at order j / periods; :meth:`BallModeCheck.of_spectra`),
     None where the rig has no ball."""
-    if not has_ball_mode(scene.rig):
+    if not has_ball_mode(scene):
         return None
     check = BallModeCheck(scene)
     step = frequency_ratio * check.natural_frequency / periods  # Hz between lines

@@ -47,7 +47,7 @@ import numpy as np
 
 from ..core.config import Scene
 from ..core.model import check_stability
-from ..errors import ConvergenceError, HertzsweepError
+from ..errors import ConfigError, ConvergenceError, HertzsweepError
 from .oscillator import Oscillator, Reading
 from .readings import Readings
 from .shooting import (
@@ -765,6 +765,13 @@ def run_branch(
         A continuation could not start (no periodic orbit at the first frequency). A
         branch that stops short is returned as it is (``Branch.end``).
     """
+    if scene.model.kind != "single":
+        raise ConfigError(
+            scene.source,
+            "model.kind",
+            f"{scene.model.kind!r} has no branch: continuation follows the periodic orbits "
+            "of the single model's period map",
+        )
     check_stability(scene)
     w_begin, w_end = start_end(scene)
     branches = []

@@ -8,17 +8,18 @@ a :class:`Reading` (lock-in harmonics, force extremes, contact loss, periodicity
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.ballmodel import BallModel
 from ..core.config import Scene
 from ..core.lockin import amplitude_phase
-from ..kernels import integrate, scheme
+from ..kernels import ball, scheme
 from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Readout
 from ..kernels.laws import make_law
-from ..kernels.methods import METHODS, Method
-from .readings import READING_FIELDS, Readings
+from ..kernels.methods import MODELS, Method
+from .readings import BALL_FIELDS, READING_FIELDS, Readings
 
 PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period below which
 # (or below 10x the scene tolerance) the steady state counts as T-periodic: well above
@@ -26,8 +27,23 @@ PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period belo
 
 
 def method(scene: Scene) -> Method:
-    """The kernels of the scene's ``solver.method``."""
-    return METHODS[scene.solver.method]
+    """The kernels of the scene's ``solver.method`` for its ``model.kind``."""
+    return MODELS[scene.model.kind][scene.solver.method]
+
+
+def model_law(scene: Scene):
+    """The kernels' record of the scene's damping law (and, for the ball model, of the
+    model's constants: :class:`~hertzsweep.kernels.ball.Ball`)."""
+    law = make_law(scene.damping.law, scene.damping.ratio, scene.damping.exponent)
+    if scene.model.kind == "ball":
+        model = BallModel.of(scene)
+        return ball.make_model(law, model.upper, model.lower, model.load, model.mass_ratio)
+    return law
+
+
+def _member(values: np.ndarray):
+    """The first trajectory's member of a state (a float, or float[2] for the ball)."""
+    return values[0].copy() if values.ndim > 1 else float(values[0])
 
 
 def drive(scene: Scene, sigma: np.ndarray | float):
@@ -40,10 +56,11 @@ def drive(scene: Scene, sigma: np.ndarray | float):
 class State:
     """The state at excitation phase 0 and step ``h`` (in tau): q and the method's other
     variable ``q_prev`` (:mod:`hertzsweep.kernels.methods`: ``q[n-1]`` for the central
-    difference, ``q'`` for RK4)."""
+    difference, ``q'`` for RK4); for the ball model each is float[2] (the moving mass's
+    and the ball's)."""
 
-    q_prev: float
-    q: float
+    q_prev: float | np.ndarray
+    q: float | np.ndarray
     h: float
 
 
@@ -60,6 +77,7 @@ class Reading:
     contact_loss_fraction : [1] share of the measured time out of contact.
     flight_tau : longest flight, in tau (dimensionless time).
     periodic : the state returned after one period (see PERIODIC_TOLERANCE_FLOOR).
+    extra : the ball model's own readings (:data:`~.readings.BALL_FIELDS`), else empty.
     """
 
     amplitude: np.ndarray
@@ -72,6 +90,7 @@ class Reading:
     periodic: bool
     coefficients: np.ndarray  # the raw sums (float[K, 2])
     samples: int
+    extra: dict[str, float] = field(default_factory=dict)
 
 
 BLOCK_ARRAYS = READING_FIELDS + ("periodic", "coefficients")  # a Block's arrays over t
@@ -93,15 +112,18 @@ class Block(Readings):
         The raw Fourier sums (``cos``, ``sin``), for combining blocks and comparing them.
     samples : int
         Steps in the block (whole periods times N).
-    end : float[T, 2]
+    end : float[T, 2] (float[T, 2, 2] for the ball model)
         The method's state ``(q_prev, q)`` at the end of the block (of the later block
         when two are combined), from which one more period can be read.
+    extra : dict of float[T]
+        The ball model's own readings (:data:`~.readings.BALL_FIELDS`); empty otherwise.
     """
 
     periodic: np.ndarray
     coefficients: np.ndarray
     samples: int
     end: np.ndarray
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
 
     @classmethod
     def read(cls, buffers: Readout, samples: int, h: np.ndarray, tolerance: float) -> Block:
@@ -117,6 +139,12 @@ class Block(Readings):
             np.maximum(np.abs(q_last), np.abs(q_prev_last)), np.maximum(0.5 * (fmax - fmin), 1e-300)
         )
         mismatch = np.maximum(np.abs(q - q_last), np.abs(q_prev - q_prev_last))
+        end = np.column_stack([q_prev, q])
+        extra: dict[str, np.ndarray] = {}
+        if buffers.extra.shape[0]:  # the ball model: its state's second member too
+            extra, q2_mismatch, q2_end = _ball_readings(buffers.extra, samples, h)
+            mismatch = np.maximum(mismatch, q2_mismatch)
+            end = np.stack([end, q2_end], axis=-1)
         return cls(
             amplitude=amplitude,
             phase=phase,
@@ -128,7 +156,8 @@ class Block(Readings):
             periodic=mismatch / scale < tolerance,
             coefficients=coefficients,
             samples=samples,
-            end=np.column_stack([q_prev, q]),
+            end=end,
+            extra=extra,
         )
 
     @classmethod
@@ -138,6 +167,7 @@ class Block(Readings):
             **{name: np.array([getattr(reading, name)]) for name in BLOCK_ARRAYS},
             samples=reading.samples,
             end=np.array([[state.q_prev, state.q]]),
+            extra={name: np.array([value]) for name, value in reading.extra.items()},
         )
 
     def at(self, t: int) -> Reading:
@@ -153,6 +183,7 @@ class Block(Readings):
             periodic=bool(self.periodic[t]),
             coefficients=self.coefficients[t],
             samples=self.samples,
+            extra={name: float(values[t]) for name, values in self.extra.items()},
         )
 
     def then(self, later: Block) -> Block:
@@ -162,9 +193,19 @@ class Block(Readings):
         coefficients = self.coefficients + later.coefficients
         amplitude, phase = amplitude_phase(coefficients, samples)
 
-        def weighted(name: str) -> np.ndarray:
-            a, b = getattr(self, name), getattr(later, name)
+        def weighted(name: str, a=None, b=None) -> np.ndarray:
+            a, b = (getattr(self, name), getattr(later, name)) if a is None else (a, b)
             return (a * self.samples + b * later.samples) / samples
+
+        combine = {"max": np.maximum, "min": np.minimum, "mean": None}
+        extra = {
+            name: (
+                combine[BALL_FIELDS[name]](a, later.extra[name])
+                if combine[BALL_FIELDS[name]] is not None
+                else weighted(name, a, later.extra[name])
+            )
+            for name, a in self.extra.items()
+        }
 
         return Block(
             amplitude=amplitude,
@@ -178,6 +219,7 @@ class Block(Readings):
             coefficients=coefficients,
             samples=samples,
             end=later.end,
+            extra=extra,
         )
 
     def agrees(self, later: Block, tolerance: float) -> np.ndarray:
@@ -190,6 +232,35 @@ class Block(Readings):
     def _vector(self) -> np.ndarray:
         flat = self.coefficients.reshape(self.coefficients.shape[0], -1) / self.samples
         return np.column_stack([self.mean_force - 1.0, flat])
+
+
+def _flight_steps(tallied: np.ndarray, samples: int) -> np.ndarray:
+    """The longest flight in steps from ``tally``'s sums (float[7, T]: total, max, min,
+    loss, longest, lead, run), a flight across the period boundary joined (lead + trail)
+    as :meth:`Block.read` joins the single model's."""
+    longest, lead, trail = tallied[4], tallied[5], tallied[6]
+    lead = np.where(lead < 0.0, trail, lead)  # never in contact: one flight
+    return np.where(lead == samples, samples, np.maximum(longest, lead + trail))
+
+
+def _ball_readings(extra: np.ndarray, samples: int, h: np.ndarray):
+    """The ball model's readings (:data:`~.readings.BALL_FIELDS`) from the kernels' block
+    (:data:`hertzsweep.kernels.ball.BALL_FIELDS`), the mismatch of the ball's state over
+    the last period and its end state (float[T, 2])."""
+    rows = dict(zip(ball.BALL_FIELDS, extra, strict=True))
+    upper = extra[ball.UPPER : ball.FLIGHT]
+    flight = extra[ball.FLIGHT :]
+    readings = {
+        "upper_force_max": upper[1] + 1.0,
+        "upper_force_min": upper[2] + 1.0,
+        "upper_contact_loss_fraction": upper[3] / samples,
+        "ball_flight_fraction": flight[3] / samples,
+        "ball_flight_tau": _flight_steps(flight, samples) * h,
+    }
+    mismatch = np.maximum(
+        np.abs(rows["q2"] - rows["q2_last"]), np.abs(rows["q2_prev"] - rows["q2_prev_last"])
+    )
+    return readings, mismatch, np.column_stack([rows["q2_prev"], rows["q2"]])
 
 
 class Oscillator:
@@ -207,7 +278,7 @@ class Oscillator:
         self.scene = scene
         self.sigma = float(sigma)
         self.zeta = float(scene.damping.ratio)
-        self.law = make_law(scene.damping.law, scene.damping.ratio, scene.damping.exponent)
+        self.law = model_law(scene)
         self.steps_per_period = int(scene.solver.steps_per_period)
         self.method = method(scene)
         self.drive = drive(scene, self.sigma)
@@ -221,7 +292,7 @@ class Oscillator:
 
     def rest(self, frequency_ratio: float) -> State:
         """At rest at the static equilibrium (q = 0, q' = 0)."""
-        return State(0.0, 0.0, self.step(frequency_ratio))
+        return State(self.method.rest(), self.method.rest(), self.step(frequency_ratio))
 
     def from_velocity(self, q: float, velocity: float, frequency_ratio: float) -> State:
         h = self.step(frequency_ratio)
@@ -275,9 +346,10 @@ class Oscillator:
         stride: int = 0,
     ) -> tuple[State, Block]:
         """Integrate whole periods and read them (a :class:`Block` of one trajectory);
-        optionally record every ``stride``-th step into ``record`` (float[M, 4]: q, q',
-        N/F_s, in contact)."""
-        buffers = integrate.new_readout(
+        optionally record every ``stride``-th step into ``record`` (float[M, C]: q, q',
+        N/F_s, in contact; the ball model adds its columns,
+        :data:`~hertzsweep.kernels.ball.BALL_RECORD_COLUMNS`)."""
+        buffers = self.method.new_readout(
             self.harmonics.size, 1, None if record is None else record[:, :, None], stride
         )
         q_prev, q = np.array([state.q_prev]), np.array([state.q])
@@ -286,7 +358,7 @@ class Oscillator:
         self.steps += periods * self.steps_per_period
         self.check_status(status, frequency_ratio)
         block = Block.read(buffers, periods * self.steps_per_period, h, self.periodic_tolerance)
-        return State(float(q_prev[0]), float(q[0]), state.h), block
+        return State(_member(q_prev), _member(q), state.h), block
 
     def dwell(self, state: State, frequency_ratio: float) -> tuple[State, Reading, bool]:
         """One stepped-sine dwell: retune, settle, measure. Returns ``(state, reading,

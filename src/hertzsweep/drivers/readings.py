@@ -20,6 +20,14 @@ SCALAR_FIELDS = (  # per dwell
     "flight_tau",  # longest flight in tau (the dataset writes flight_time [s] = tau / Omega)
 )
 READING_FIELDS = HARMONIC_FIELDS + SCALAR_FIELDS
+BALL_FIELDS = {  # the ball model's own readings (model.kind = "ball"), and how two blocks
+    # of readings combine: the force and flights above are then the lower contact's
+    "upper_force_max": "max",  # extremes of the upper contact's force over F_s
+    "upper_force_min": "min",
+    "upper_contact_loss_fraction": "mean",  # share of the time the upper contact is open
+    "ball_flight_fraction": "mean",  # share of the time both contacts are open
+    "ball_flight_tau": "max",  # the ball's longest flight (both open) in tau
+}
 
 
 @dataclass
@@ -36,4 +44,4 @@ class Readings:
     flight_tau: np.ndarray
 
 
-__all__ = ["HARMONIC_FIELDS", "READING_FIELDS", "SCALAR_FIELDS", "Readings"]
+__all__ = ["BALL_FIELDS", "HARMONIC_FIELDS", "READING_FIELDS", "SCALAR_FIELDS", "Readings"]

@@ -359,7 +359,7 @@ def _walked(oscillator: Oscillator, buffers: Readout, steps: np.ndarray, start: 
         run = slice(start, stop)
         done = Readout(
             buffers.coefficients[:, :, run], buffers.sums[:, run], buffers.counts[:, run],
-            buffers.record, 0,
+            buffers.record, 0, buffers.extra[:, run],
         )  # fmt: skip
         samples = CONVERGED_PERIODS * oscillator.steps_per_period
         block = Block.read(done, samples, steps[run], oscillator.periodic_tolerance)

@@ -9,7 +9,7 @@ excitation changes frequency at a period boundary (phase 0), so its phase is con
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,10 +17,10 @@ from ..core.ballmode import has_ball_mode
 from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import HertzsweepError, Interrupted
-from ..kernels import integrate, scheme
+from ..kernels import scheme
 from .ballmode import BallModeCheck
 from .oscillator import Block, Oscillator, drive
-from .readings import HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
+from .readings import BALL_FIELDS, HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
 from .steady import strategy
 
 Progress = Callable[[int], None]
@@ -48,6 +48,7 @@ class SweepResult(Readings):
     steps: int = 0
     ball_mode_error: np.ndarray | None = None
     end: np.ndarray | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)  # the ball model's readings
 
     @classmethod
     def empty(cls, scene: Scene, ball_mode: bool = False) -> SweepResult:
@@ -73,6 +74,7 @@ class SweepResult(Readings):
             finished=np.zeros(shape[:2], dtype=bool),
             ball_mode_error=nan() if ball_mode else None,
             end=nan(2) if ball_mode else None,
+            extra={name: nan() for name in BALL_FIELDS} if scene.model.kind == "ball" else {},
             **readings,
         )
 
@@ -86,6 +88,8 @@ class SweepResult(Readings):
             getattr(self, name)[at] = getattr(block, name)
         self.settled[at] = settled
         self.periodic[at] = block.periodic
+        for name, values in self.extra.items():
+            values[at] = block.extra[name]
         if self.end is not None:
             self.end[at] = block.end
 
@@ -184,7 +188,7 @@ def run_sweep(
         The state became non-finite.
     """
     check_stability(scene)
-    ball = BallModeCheck(scene) if ball_mode and has_ball_mode(scene.rig) else None
+    ball = BallModeCheck(scene) if ball_mode and has_ball_mode(scene) else None
     if batched and lockstep(scene):
         return _run_lockstep(scene, progress, ball)
     result = SweepResult.empty(scene, ball is not None)
@@ -231,10 +235,10 @@ class Lockstep:
         self.law = self.oscillators[0].law
         self.drive = drive(scene, sigma)
         self.h = np.array(h, dtype=float)
-        self.q_prev = np.zeros(sigma.size)
-        self.q = np.zeros(sigma.size)
         self.steps = 0
         self.method = self.oscillators[0].method
+        self.q_prev = self.method.zeros(sigma.size)
+        self.q = self.method.zeros(sigma.size)
         # one trajectory keeps its state in registers (the same numbers, bit for bit)
         self.measure = self.method.measure_one if sigma.size == 1 else self.method.measure
 
@@ -248,16 +252,16 @@ class Lockstep:
         status, bad = self.method.advance_batch(
             self.q_prev, self.q, self.h, self.law, self.drive, int(sweep.settle_periods)
         )
-        self.steps += self.q.size * int(sweep.settle_periods) * n
+        self.steps += len(self.q) * int(sweep.settle_periods) * n
         if status != scheme.OK:
             return status, bad, None, None
         blocks = []
         for periods in measured_blocks(sweep.measure_periods):
-            buffers = integrate.new_readout(self.drive.harmonics.size, self.q.size)
+            buffers = self.method.new_readout(self.drive.harmonics.size, len(self.q))
             status, bad = self.measure(
                 self.q_prev, self.q, self.h, self.law, self.drive, periods, buffers
             )
-            self.steps += self.q.size * periods * n
+            self.steps += len(self.q) * periods * n
             if status != scheme.OK:
                 return status, bad, None, None
             blocks.append(Block.read(buffers, periods * n, self.h, tolerance))

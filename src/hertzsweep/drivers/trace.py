@@ -18,15 +18,17 @@ lock-in, every ``stride``-th step (``stride = steps_per_period / samples_per_per
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 
+from ..core.ballmodel import BallModel
 from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import ConfigError, HertzsweepError
 from ..kernels import scheme
+from ..kernels.ball import BALL_RECORD_COLUMNS
 from ..kernels.flights import IN_CONTACT, NORMAL_FORCE, RECORD_COLUMNS, flight_intervals
 from .ballmode import spectrum_errors
 from .oscillator import Oscillator, Reading, State
@@ -38,6 +40,7 @@ Progress = Callable[[int], None]
 
 BRANCHES = ("upper", "lower")
 DEFAULT_PERIODS = 8
+BALL_DISPLACEMENT = 4  # the ball's q2 and q2' in its model's record (kernels.ball)
 GRID_MATCH = 1e-9  # grid frequencies within this of W count as W (the grid is rounded
 # to 1e-12; a user's --frequency 0.975 must not dwell at a grid point 0.975 + 1e-13 first)
 
@@ -128,6 +131,8 @@ class TraceResult(Readings):
     spectrum_backend: str
     steps: int = 0
     ball_mode_error: np.ndarray | None = None
+    record_columns: int = RECORD_COLUMNS  # the ball model's record has more
+    extra: dict[str, np.ndarray] = field(default_factory=dict)  # the ball model's readings
 
     @property
     def samples(self) -> int:
@@ -253,9 +258,11 @@ class RecordSink(Protocol):
     """Where a streamed record goes (the output layer's netCDF file): :meth:`open` once
     with the record's shape and spacing, then every chunk in order."""
 
-    def open(self, sigma: int, samples: int, chunk: int, sample_step: float) -> None:
+    def open(
+        self, sigma: int, samples: int, chunk: int, sample_step: float, columns: int = 4
+    ) -> None:
         """``sigma`` x ``samples`` samples to come, in chunks of ``chunk`` samples (the
-        last one may be shorter), ``sample_step`` apart in tau."""
+        last one may be shorter), ``sample_step`` apart in tau, of ``columns`` columns."""
 
     def write(self, s: int, first: int, rows: np.ndarray) -> None:
         """Samples ``first .. first + len(rows)`` of sigma ``s`` (float[n, 4])."""
@@ -315,8 +322,10 @@ class _Recorder:
         analyser: AmplitudeSpectrum,
         per_period: int,
         stride: int,
+        columns: tuple[int, Callable[[np.ndarray], np.ndarray]],
     ) -> None:
         self.sink = sink
+        width, self.flight_view = columns
         self.per_period = per_period
         self.periods = analyser.samples // per_period
         self.stride = stride
@@ -324,9 +333,9 @@ class _Recorder:
         self.chunk_samples = min(self.chunk, self.periods) * per_period  # the longest chunk
         self.record = self.force = None
         if sink is None:
-            self.record = np.empty((sigma, analyser.samples, RECORD_COLUMNS))
+            self.record = np.empty((sigma, analyser.samples, width))
         else:  # N/F_s straight into the transform's input: no copy of the record's length
-            self.buffer = np.empty((self.chunk_samples + 1, RECORD_COLUMNS))
+            self.buffer = np.empty((self.chunk_samples + 1, width))
             self.force = analyser.buffer()
 
     def run(
@@ -343,7 +352,7 @@ class _Recorder:
             rows, window = self._rows(s, first, count * self.per_period, lead)
             state, part = oscillator.measure_block(state, frequency_ratio, count, rows, self.stride)
             block = part if block is None else block.then(part)
-            flights.add(window, first - lead, last=p + count == self.periods)
+            flights.add(self.flight_view(window), first - lead, last=p + count == self.periods)
             if self.sink is not None:
                 self.sink.write(s, first, rows)
                 self.force[first : first + rows.shape[0]] = rows[:, NORMAL_FORCE]
@@ -363,6 +372,23 @@ class _Recorder:
     def normal_force(self, s: int) -> np.ndarray:
         """N/F_s of sigma ``s`` over the whole record."""
         return self.force if self.record is None else self.record[s, :, NORMAL_FORCE]
+
+
+def record_layout(scene: Scene) -> tuple[int, Callable[[np.ndarray], np.ndarray]]:
+    """The columns of the scene's record and the view of a chunk its flights are read
+    from (:func:`~hertzsweep.kernels.flights.flight_intervals`: ``q, q', N/F_s, in
+    contact`` with loss of contact at ``q = -3/2``). The ball model's flights are the
+    lower contact's, which the transducer sits under: its compression ``l = 1 + 2 q2 /
+    (3 a_l)`` vanishes where ``q2 / a_l = -3/2``, so the view scales the ball's columns."""
+    if scene.model.kind == "single":
+        return RECORD_COLUMNS, lambda window: window
+    lower = BallModel.of(scene).lower
+
+    def lower_contact(window: np.ndarray) -> np.ndarray:
+        ball = window[:, BALL_DISPLACEMENT : BALL_DISPLACEMENT + 2] / lower
+        return np.column_stack([ball, window[:, NORMAL_FORCE : IN_CONTACT + 1]])
+
+    return BALL_RECORD_COLUMNS, lower_contact
 
 
 # --------------------------------------------------------------------------- driver
@@ -426,9 +452,10 @@ def run_trace(
     dwell = strategy(scene).dwell
 
     analyser = AmplitudeSpectrum(samples)
-    recorder = _Recorder(sink, sigma.size, analyser, samples_per_period, stride)
+    columns = record_layout(scene)
+    recorder = _Recorder(sink, sigma.size, analyser, samples_per_period, stride, columns)
     if sink is not None:
-        sink.open(sigma.size, samples, recorder.chunk_samples, sample_step)
+        sink.open(sigma.size, samples, recorder.chunk_samples, sample_step, columns[0])
     spectrum = np.empty((sigma.size, analyser.bins))
     amplitude = np.empty((sigma.size, harmonics.size))
     phase = np.empty_like(amplitude)
@@ -436,6 +463,7 @@ def run_trace(
     settled = np.zeros(sigma.size, dtype=bool)
     periodic = np.zeros(sigma.size, dtype=bool)
     intervals = []
+    extra: dict[str, np.ndarray] = {}
     steps = 0
     for s, level in enumerate(sigma):
         oscillator = Oscillator(scene, level)
@@ -450,6 +478,8 @@ def run_trace(
         for name in SCALAR_FIELDS:  # flight_tau: from the interpolated flights, below
             scalars[name][s] = getattr(reading, name)
         periodic[s] = reading.periodic
+        for name, value in reading.extra.items():
+            extra.setdefault(name, np.full(sigma.size, np.nan))[s] = value
         intervals.append(log.intervals())
         scalars["flight_tau"][s] = longest_flight(*intervals[-1], samples * sample_step)
 
@@ -473,6 +503,8 @@ def run_trace(
         approach=path,
         spectrum_backend=analyser.backend,
         steps=steps,
+        record_columns=columns[0],
+        extra=extra,
         **scalars,
     )
 

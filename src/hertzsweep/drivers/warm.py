@@ -6,11 +6,11 @@ a fresh install therefore pays about 1.5 s of compilation on each command's firs
 and the test suite about a minute in all. ``python -m hertzsweep.drivers.warm`` (run by
 ``make install``) runs tiny scenes through every driver path (the sweep in lockstep and
 one trajectory at a time, automatic settling, shooting, a trace, a branch; sweeps,
-shooting and a branch also with ``rk4``) for every law type, one group of laws per
-process, so that the compilation is paid once, at install, spread over the cores. It
-changes no result: the cache holds what the first run would have compiled.
-:func:`load_kernels` loads a sweep case's kernels from that cache (a study's workers
-call it as they start).
+shooting and a branch also with ``rk4``; the ball model's sweeps and trace) for every
+law type, one group of laws per process, so that the compilation is paid once, at
+install, spread over the cores. It changes no result: the cache holds what the first
+run would have compiled. :func:`load_kernels` loads a sweep case's kernels from that
+cache (a study's workers call it as they start).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 
-from ..core.config import scene_from_dict
+from ..core.config import ModelConfig, scene_from_dict
 
 # one scene per law type (hertzsweep.kernels.laws.LAWS): (law, exponent) of Viscous,
 # Contact (the paper's n) and ContactPower (any other n)
@@ -56,6 +56,13 @@ def compile_law(law: str, exponent: float) -> str:
     run_sweep(rk4, batched=False)
     run_sweep(replace(rk4, sweep=shooting))
     run_branch(replace(rk4, sweep=short))
+    # the ball model (its mode needs finer steps than the tiny scene's)
+    ball = replace(
+        scene, model=ModelConfig("ball"), solver=replace(scene.solver, steps_per_period=256)
+    )
+    run_sweep(ball)
+    run_sweep(ball, batched=False)
+    run_trace(ball, 0.92, periods=2)
     return f"{law} n={exponent}"
 
 

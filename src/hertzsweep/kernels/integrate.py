@@ -49,13 +49,14 @@ Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "st
 (orders demodulated, each below N/2), and ``stop`` (:data:`.stop.REQUEST`, polled once a
 period: a loop returns :data:`~.scheme.STOPPED` when it is set)."""
 
-Readout = namedtuple("Readout", ["coefficients", "sums", "counts", "record", "stride"])
+Readout = namedtuple("Readout", ["coefficients", "sums", "counts", "record", "stride", "extra"])
 """What :func:`measure` reads, per trajectory t (last axis):
 ``coefficients`` float[K, 2, T]: ``sum (N/F_s - 1) cos(k theta_j)``, ``... sin(k theta_j)``;
 ``sums`` float[SUMS, T] (:data:`SUM_FIELDS`); ``counts`` float64[COUNTS, T]
 (:data:`COUNT_FIELDS`, flight runs in steps: ``lead`` starts the record, ``trail`` ends it,
 so that a flight across the period boundary can be joined); ``record`` float[M, 4, T]: every
-``stride``-th step ``q, q', N/F_s, in contact`` (``stride = 0``: none)."""
+``stride``-th step ``q, q', N/F_s, in contact`` (``stride = 0``: none); ``extra`` float[E, T]:
+a model's own sums (E = 0 for the single model; :data:`.ball.BALL_FIELDS`)."""
 
 SUM_FIELDS = ("total", "force_max", "force_min", "q_prev_last", "q_last", "q_prev", "q")
 COUNT_FIELDS = ("loss", "longest", "lead", "trail")
@@ -67,7 +68,8 @@ def new_readout(harmonics: int, trajectories: int, record=None, stride: int = 0)
         record, stride = np.zeros((0, 4, trajectories)), 0
     sums = np.zeros((len(SUM_FIELDS), trajectories))
     counts = np.zeros((len(COUNT_FIELDS), trajectories))  # whole numbers, as floats
-    return Readout(np.zeros((harmonics, 2, trajectories)), sums, counts, record, int(stride))
+    coefficients = np.zeros((harmonics, 2, trajectories))
+    return Readout(coefficients, sums, counts, record, int(stride), np.zeros((0, trajectories)))
 
 
 @njit(cache=CACHE, inline="always")

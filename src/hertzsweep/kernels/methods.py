@@ -29,7 +29,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import integrate, rk, tangent
+from . import ball, integrate, rk, tangent
 
 KERNELS = (
     "advance",
@@ -41,6 +41,7 @@ KERNELS = (
     "start",
     "restart",
     "retune_batch",
+    "new_readout",
 )
 """What every method's kernel module defines, under these names (the module docstring)."""
 
@@ -63,12 +64,26 @@ class Method:
     start: Callable
     restart: Callable
     retune_batch: Callable
+    new_readout: Callable  # (harmonics, trajectories, record, stride) -> Readout
+    state_shape: tuple[int, ...] = ()  # of one trajectory's q (the ball model's: (2,))
+    record_columns: int = 4  # of a sample of the record
 
     @classmethod
-    def of(cls, name: str, order: str, module, period_map: Callable, basis: Callable) -> Method:
-        """The method whose kernels are ``module``'s :data:`KERNELS`."""
+    def of(
+        cls, name: str, order: str, module, period_map: Callable, basis: Callable, **shape
+    ) -> Method:
+        """The method whose kernels are ``module``'s :data:`KERNELS` (``shape``: its
+        ``state_shape`` and ``record_columns`` where they are not the single model's)."""
         kernels = {kernel: getattr(module, kernel) for kernel in KERNELS}
-        return cls(name, order, period_map, basis, **kernels)
+        return cls(name, order, period_map, basis, **kernels, **shape)
+
+    def zeros(self, trajectories: int) -> np.ndarray:
+        """One member of the state of T trajectories at rest (float[T] or float[T, 2])."""
+        return np.zeros((trajectories, *self.state_shape))
+
+    def rest(self):
+        """One member of one trajectory's state at rest (0.0, or float[2])."""
+        return np.zeros(self.state_shape) if self.state_shape else 0.0
 
     def drive(self, sigma, harmonics, steps_per_period: int):
         """The kernels' input at the levels ``sigma`` (one per trajectory)."""
@@ -79,7 +94,7 @@ class Method:
 
 @lru_cache(maxsize=16)
 def _tables(name: str, steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
-    return METHODS[name].tables(steps_per_period)
+    return METHODS[name].tables(steps_per_period)  # every model's method shares them
 
 
 def difference_basis(steps_per_period: int) -> np.ndarray:
@@ -101,4 +116,26 @@ METHODS = {
     "rk4": Method.of("rk4", "4 in contact, 3.5 through impacts", rk, rk.period_map, velocity_basis),
 }
 
-__all__ = ["KERNELS", "METHODS", "Method"]
+
+def _no_period_map(*args):
+    raise NotImplementedError("the ball model has no period map (it settles)")
+
+
+BALL_METHODS = {
+    "central-difference": Method.of(
+        "central-difference",
+        "2",
+        ball,
+        _no_period_map,
+        difference_basis,
+        state_shape=(2,),
+        record_columns=ball.BALL_RECORD_COLUMNS,
+    ),
+}
+"""The two-degree-of-freedom model's methods (:mod:`.ball`): it settles to its steady
+state, so it has no period map (``hertzsweep.core.config.check_model`` refuses shooting)."""
+
+MODELS = {"single": METHODS, "ball": BALL_METHODS}
+"""Each ``model.kind``'s methods."""
+
+__all__ = ["BALL_METHODS", "KERNELS", "METHODS", "MODELS", "Method"]

@@ -69,6 +69,9 @@ from .integrate import (
     _sample,
     _status,
 )
+from .integrate import (
+    new_readout as new_readout,  # the readout every method of the single model fills
+)
 from .laws import singular_exponent, slopes, terms
 from .scheme import NON_FINITE, OK, to_compression
 from .stop import REQUEST
@@ -772,6 +775,7 @@ def _no_readout(trajectories):
         np.zeros((len(COUNT_FIELDS), trajectories)),
         np.zeros((0, 4, trajectories)),
         0,
+        np.zeros((0, trajectories)),
     )
 
 

@@ -394,6 +394,7 @@ def shooting_walk(state, steps, law, drive, settings, readout, start, transient)
         np.zeros((readout.counts.shape[0], 1)),
         np.zeros((0, 4, 1)),
         0,
+        np.zeros((0, 1)),
     )
     unpredicted = NewtonSettings(
         settings.scale,

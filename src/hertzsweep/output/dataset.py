@@ -246,6 +246,18 @@ def _readings(get: Callable[[str], Any], dims: tuple[str, ...], omega: float) ->
     return data
 
 
+def _ball_readings(extra: Mapping[str, Any], dims: tuple[str, ...], omega: float) -> Variables:
+    """The ball model's own readings (:data:`~hertzsweep.drivers.readings.BALL_FIELDS`;
+    none for the single model), ``ball_flight_tau`` as ``ball_flight_time`` [s]."""
+    return {
+        (name.removesuffix("_tau") + "_time" if name.endswith("_tau") else name): (
+            dims,
+            values / omega if name.endswith("_tau") else values,
+        )
+        for name, values in extra.items()
+    }
+
+
 def _build(data: Variables, coords: Mapping[str, Any], global_attrs: dict[str, Any]) -> Frame:
     """A dataset whose variables take their CF attributes from :func:`attributes`."""
     variables = {name: (dims, values, attrs(name)) for name, (dims, values) in data.items()}
@@ -286,6 +298,7 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
     )
     if result.ball_mode_error is not None:
         data["ball_mode_error"] = (base, result.ball_mode_error)
+    data.update(_ball_readings(result.extra, base, constants.natural_circular_frequency))
     title = "Stepped-sine sweep of a preloaded Hertzian contact"
     ds = _build(data, _coords(result, constants), global_attributes(scene, title, "sweep", history))
     _flags(ds, ("settled", "periodic"), YES_NO, "no yes")
@@ -311,18 +324,19 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     w = float(result.frequency_ratio)
     trace = ("sigma", "sample")
     flight = ("sigma", "flight")
+    variables = record_variables(result.record_columns)
     if result.record is None:  # streamed (RecordStream): in the file already
         shape = (result.sigma.size, result.samples)
         tau = np.broadcast_to(np.nan, shape[1:])
-        columns = [np.broadcast_to(dtype(0), shape) for _, dtype in RECORD_VARIABLES]
+        columns = [np.broadcast_to(dtype(0), shape) for _, dtype in variables]
     else:
         tau = result.tau
         columns = [
             result.record[:, :, c].astype(dtype, copy=False)
-            for c, (_, dtype) in enumerate(RECORD_VARIABLES)
+            for c, (_, dtype) in enumerate(variables)
         ]
     data: Variables = {
-        name: (trace, column) for (name, _), column in zip(RECORD_VARIABLES, columns, strict=True)
+        name: (trace, column) for (name, _), column in zip(variables, columns, strict=True)
     }
     data["spectrum"] = (("sigma", "harmonic_order"), result.spectrum)
     data.update(_readings(partial(getattr, result), ("sigma",), omega))
@@ -341,6 +355,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     )
     if result.ball_mode_error is not None:
         data["ball_mode_error"] = ("sigma", result.ball_mode_error)
+    data.update(_ball_readings(result.extra, ("sigma",), omega))
     order = result.harmonic_order
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),
@@ -354,7 +369,12 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     command = trace_command(result, scene)
     ds = _build(data, coords, global_attributes(scene, title, "trace", history, command))
     _flags(ds, ("settled", "periodic"), YES_NO, "no yes")
-    _flags(ds, ("in_contact",), YES_NO, "flight contact")
+    _flags(
+        ds,
+        ("in_contact",) + (("upper_in_contact",) if result.extra else ()),
+        YES_NO,
+        "flight contact",
+    )
     complete = np.array([-1, 0, 1], dtype=np.int8)
     _flags(ds, ("flight_complete",), complete, "no_flight cut_by_record complete")
     approach = np.asarray(result.approach)
@@ -732,6 +752,17 @@ RECORD_VARIABLES = (  # a trace record's columns (kernels.flights), as variables
     ("normal_force", np.float64),
     ("in_contact", np.int8),
 )
+BALL_RECORD_VARIABLES = RECORD_VARIABLES + (  # the ball model's (kernels.ball)
+    ("ball_displacement", np.float64),
+    ("ball_velocity", np.float64),
+    ("upper_force", np.float64),
+    ("upper_in_contact", np.int8),
+)
+
+
+def record_variables(columns: int) -> tuple[tuple[str, Any], ...]:
+    """The variables of a record of ``columns`` columns (the single or the ball model's)."""
+    return RECORD_VARIABLES if columns == len(RECORD_VARIABLES) else BALL_RECORD_VARIABLES
 
 
 class RecordStream:
@@ -755,6 +786,7 @@ class RecordStream:
         self.omega = float(omega)
         self.nc: Any = None
         self.sample_step = 0.0
+        self.variables = RECORD_VARIABLES
 
     def __enter__(self) -> RecordStream:
         return self
@@ -765,7 +797,9 @@ class RecordStream:
                 self.nc.close()
             self.nc = None
 
-    def open(self, sigma: int, samples: int, chunk: int, sample_step: float) -> None:
+    def open(
+        self, sigma: int, samples: int, chunk: int, sample_step: float, columns: int = 4
+    ) -> None:
         """Create the file, its ``sigma`` and ``sample`` dimensions and the streamed
         variables, stored in HDF5 chunks of the recorded chunks (one sigma x ``chunk``
         samples), each variable's chunk cache one chunk: every chunk is written whole,
@@ -773,13 +807,14 @@ class RecordStream:
         import netCDF4
 
         self.sample_step = float(sample_step)
+        self.variables = record_variables(columns)
         with self._writing():
             nc = self.nc = netCDF4.Dataset(self.path, "w", format="NETCDF4")
             nc.createDimension("sigma", sigma)
             nc.createDimension("sample", samples)
             for name in ("tau", "time"):
                 nc.createVariable(name, np.float64, ("sample",), **_storage("f", True, samples))
-            for name, dtype in RECORD_VARIABLES:
+            for name, dtype in self.variables:
                 kind = np.dtype(dtype).kind
                 options = _storage(kind, False, sigma * samples)
                 variable = nc.createVariable(
@@ -795,7 +830,7 @@ class RecordStream:
                 tau = np.arange(span.start, span.stop) * self.sample_step
                 self.nc["tau"][span] = tau
                 self.nc["time"][span] = tau / self.omega
-            for c, (name, dtype) in enumerate(RECORD_VARIABLES):
+            for c, (name, dtype) in enumerate(self.variables):
                 self.nc[name][s, span] = rows[:, c].astype(dtype, copy=False)
 
     def finish(self, ds: Frame) -> None:
