@@ -66,10 +66,11 @@ def stability_limit(scene: Scene, lowest: float | None = None) -> float:
     largest sigma.
     """
     w_min = float(scene.sweep.frequency_ratios.min()) if lowest is None else float(lowest)
-    om = omega_max(max(scene.excitation.sigma), scene.damping.ratio)
+    force = force_bound(max(scene.excitation.sigma), scene.damping.ratio)
     if scene.model.kind == "ball":  # the ball's own mode, the stiffer, sets it
-        force = force_bound(max(scene.excitation.sigma), scene.damping.ratio)
         om = BallModel.of(scene).stability_frequency(force)
+    else:
+        om = omega_max(max(scene.excitation.sigma), scene.damping.ratio)
     return 2.0 * math.pi * om / (STABILITY[scene.solver.method] * w_min)
 
 

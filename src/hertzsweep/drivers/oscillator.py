@@ -193,27 +193,21 @@ class Block(Readings):
         coefficients = self.coefficients + later.coefficients
         amplitude, phase = amplitude_phase(coefficients, samples)
 
-        def weighted(name: str, a=None, b=None) -> np.ndarray:
-            a, b = (getattr(self, name), getattr(later, name)) if a is None else (a, b)
+        def weighted(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             return (a * self.samples + b * later.samples) / samples
 
-        combine = {"max": np.maximum, "min": np.minimum, "mean": None}
+        combine = {"max": np.maximum, "min": np.minimum, "mean": weighted}
         extra = {
-            name: (
-                combine[BALL_FIELDS[name]](a, later.extra[name])
-                if combine[BALL_FIELDS[name]] is not None
-                else weighted(name, a, later.extra[name])
-            )
-            for name, a in self.extra.items()
+            name: combine[BALL_FIELDS[name]](a, later.extra[name]) for name, a in self.extra.items()
         }
 
         return Block(
             amplitude=amplitude,
             phase=phase,
-            mean_force=weighted("mean_force"),
+            mean_force=weighted(self.mean_force, later.mean_force),
             force_max=np.maximum(self.force_max, later.force_max),
             force_min=np.minimum(self.force_min, later.force_min),
-            contact_loss_fraction=weighted("contact_loss_fraction"),
+            contact_loss_fraction=weighted(self.contact_loss_fraction, later.contact_loss_fraction),
             flight_tau=np.maximum(self.flight_tau, later.flight_tau),
             periodic=later.periodic,
             coefficients=coefficients,

@@ -37,8 +37,9 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from . import CACHE
-from .integrate import TALLY_START, Readout, _finish, _lockin_tables, inputs, tally
+from . import CACHE, integrate
+from .integrate import TALLY_START, Readout, _finish, _lockin_tables, tally
+from .integrate import inputs as inputs  # the single model's drive, as every method's
 from .laws import terms
 from .scheme import NON_FINITE, OK, STOPPED, UNSTABLE, forcing, period_tables
 from .stop import requested
@@ -66,14 +67,11 @@ def make_model(law, upper: float, lower: float, load: float, mass_ratio: float) 
 
 
 def new_readout(harmonics: int, trajectories: int, record=None, stride: int = 0) -> Readout:
-    """Output buffers for :func:`measure` (``record`` float[M, 8, T])."""
-    if record is None or stride <= 0:
-        record, stride = np.zeros((0, BALL_RECORD_COLUMNS, trajectories)), 0
-    sums = np.zeros((7, trajectories))
-    counts = np.zeros((4, trajectories))
-    extra = np.zeros((len(BALL_FIELDS), trajectories))
-    coefficients = np.zeros((harmonics, 2, trajectories))
-    return Readout(coefficients, sums, counts, record, int(stride), extra)
+    """Output buffers for :func:`measure` (``record`` float[M, 8, T], the
+    :data:`BALL_FIELDS` block)."""
+    return integrate.new_readout(
+        harmonics, trajectories, record, stride, BALL_RECORD_COLUMNS, len(BALL_FIELDS)
+    )
 
 
 @njit(cache=CACHE, inline="always")
@@ -160,12 +158,10 @@ def _status(model, rows, peaks, h, stop):
         if unstable(model, peaks[0, t], peaks[1, t], h[t]):
             return UNSTABLE, t
     for t in range(rows.shape[1]):
-        q1, q2 = displacements(model, rows[0, t], rows[2, t])
-        p1, p2 = displacements(model, rows[1, t], rows[3, t])
-        if not (math.isfinite(q1) and math.isfinite(q2) and math.isfinite(p1)):
-            return NON_FINITE, t
-        if not math.isfinite(p2):
-            return NON_FINITE, t
+        for n in (0, 1):  # steps n-1 and n, as displacements (a finite d may overflow them)
+            q1, q2 = displacements(model, rows[n, t], rows[n + 2, t])
+            if not (math.isfinite(q1) and math.isfinite(q2)):
+                return NON_FINITE, t
     if requested(stop):
         return STOPPED, -1
     return OK, -1
@@ -346,36 +342,10 @@ def measure(q_prev, q, h, model, drive, periods, readout):
 measure_one = measure  # one trajectory is a batch of one: the same numbers by construction
 
 
-@njit(cache=CACHE, error_model="numpy")
-def _accelerations(model, u, l, load, rate_u, rate_l):
-    """``(u'', l'')`` of the model's equations at compressions u, l and rates u', l'."""
-    root_u, cu = contact_terms(model.law, u)
-    root_l, cl = contact_terms(model.law, l)
-    au, al, big, mu = model.upper, model.lower, model.load, model.mass_ratio
-    upper = u * root_u + 3.0 * au * cu * rate_u  # the upper contact's force over F_s
-    lower = big * l * root_l + 3.0 * al * cl * rate_l
-    ball = (big - 1.0 + upper - lower) / (1.5 * mu * al)  # l''
-    return ((load - upper) / 1.5 - al * ball) / au, ball
-
-
-@njit(cache=CACHE, error_model="numpy")
-def _rates(model, v1, v2):
-    """``(u', l')`` of the velocities ``(q1', q2')``."""
-    return (v1 - v2) * (2.0 / 3.0) / model.upper, v2 * (2.0 / 3.0) / model.lower
-
-
-@njit(cache=CACHE, error_model="numpy")
-def start_from(q, velocity, h, model):
-    """``q_prev`` (float[2]) that starts the scheme at ``(q, q')`` (float[2] each) with
-    excitation phase 0: ``q - h q' + h^2 / 2 q''``."""
-    u, l = compressions(model, q[0], q[1])
-    rate_u, rate_l = _rates(model, velocity[0], velocity[1])
-    acc_u, acc_l = _accelerations(model, u, l, 1.0, rate_u, rate_l)
-    u_prev = u - h * rate_u + 0.5 * h * h * acc_u
-    l_prev = l - h * rate_l + 0.5 * h * h * acc_l
-    out = np.empty(2)
-    out[0], out[1] = displacements(model, u_prev, l_prev)
-    return out
+def start(q, velocity, h, model):
+    """Not available: the ball model starts from rest or from a run's state (nothing that
+    needs a start from ``(q, q')``, shooting or the benchmark's dwell, runs it)."""
+    raise NotImplementedError("the ball model starts from rest or from a run's state")
 
 
 @njit(cache=CACHE, error_model="numpy")
@@ -420,23 +390,4 @@ def restart(q_prev, q, h_old, h_new, model):
     return a[0]
 
 
-start = start_from
 tables = period_tables
-
-
-__all__ = [
-    "BALL_FIELDS",
-    "BALL_RECORD_COLUMNS",
-    "Ball",
-    "advance",
-    "advance_batch",
-    "inputs",
-    "make_model",
-    "measure",
-    "measure_one",
-    "new_readout",
-    "restart",
-    "retune_batch",
-    "start_from",
-    "step",
-]

@@ -62,14 +62,23 @@ SUM_FIELDS = ("total", "force_max", "force_min", "q_prev_last", "q_last", "q_pre
 COUNT_FIELDS = ("loss", "longest", "lead", "trail")
 
 
-def new_readout(harmonics: int, trajectories: int, record=None, stride: int = 0) -> Readout:
-    """Output buffers for :func:`measure` (``record`` float[M, 4, T])."""
+def new_readout(
+    harmonics: int,
+    trajectories: int,
+    record=None,
+    stride: int = 0,
+    columns: int = 4,
+    extra: int = 0,
+) -> Readout:
+    """Output buffers for :func:`measure` (``record`` float[M, columns, T]; ``extra`` rows
+    of a model's own sums, none for the single model)."""
     if record is None or stride <= 0:
-        record, stride = np.zeros((0, 4, trajectories)), 0
+        record, stride = np.zeros((0, columns, trajectories)), 0
     sums = np.zeros((len(SUM_FIELDS), trajectories))
     counts = np.zeros((len(COUNT_FIELDS), trajectories))  # whole numbers, as floats
     coefficients = np.zeros((harmonics, 2, trajectories))
-    return Readout(coefficients, sums, counts, record, int(stride), np.zeros((0, trajectories)))
+    own = np.zeros((extra, trajectories))
+    return Readout(coefficients, sums, counts, record, int(stride), own)
 
 
 @njit(cache=CACHE, inline="always")

@@ -133,7 +133,8 @@ BALL_METHODS = {
     ),
 }
 """The two-degree-of-freedom model's methods (:mod:`.ball`): it settles to its steady
-state, so it has no period map (``hertzsweep.core.config.check_model`` refuses shooting)."""
+state from rest, so it has no period map and no start from ``(q, q')``
+(``hertzsweep.core.config.check_model`` refuses shooting)."""
 
 MODELS = {"single": METHODS, "ball": BALL_METHODS}
 """Each ``model.kind``'s methods."""
