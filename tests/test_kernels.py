@@ -44,27 +44,37 @@ def test_law_records_are_the_three_types():
 @pytest.mark.parametrize(("law", "exponent"), LAWS, ids=IDS)
 def test_batched_equals_single_bit_for_bit(law, exponent):
     """T trajectories at their own step and level against each alone: the same bits
-    (sigma 7.8 % loses contact, 0.5 % does not)."""
+    (sigma 7.8 % loses contact, 0.5 % does not). T is one more than a block of the
+    instruments' working array and three more (a full block and a partial one)."""
     record = law_record(law, exponent)
-    sigma = np.array([0.005, 0.03, 0.078])
-    h = np.array([scheme.step_size(w, N) for w in (0.6, 0.9, 0.97)])
-    q_prev, q = np.full(3, 0.01), np.full(3, -0.02)
+    count = integrate.LANES + 3
+    sigma = np.resize([0.005, 0.03, 0.078], count) * np.linspace(1.0, 1.1, count)
+    h = np.resize([scheme.step_size(w, N) for w in (0.6, 0.9, 0.97)], count)
+    q_prev, q = np.full(count, 0.01), np.full(count, -0.02)
     status, bad = integrate.advance_batch(q_prev, q, h, record, inputs(sigma), 40)
     assert (status, bad) == (scheme.OK, -1)
-    for t in range(3):
+    for t in range(count):
         alone = integrate.advance(0.01, -0.02, h[t], record, inputs(sigma[t]), 40)
         assert alone == (q_prev[t], q[t], scheme.OK)
-    # the instruments: three together against each alone (its own loop, in registers)
-    together = integrate.new_readout(3, 3)
-    qp3, q3 = q_prev.copy(), q.copy()
-    integrate.measure(qp3, q3, h, record, inputs(sigma), 3, together)
-    for t in range(3):
-        alone = integrate.new_readout(3, 1)
+    # the instruments: all together against each alone (its own loop, in registers),
+    # every 7th step recorded
+    stride, periods = 7, 3
+    samples = -(-periods * N // stride)
+
+    def readout(trajectories):
+        return integrate.new_readout(3, trajectories, np.zeros((samples, 4, trajectories)), stride)
+
+    together = readout(count)
+    qp_all, q_all = q_prev.copy(), q.copy()
+    integrate.measure(qp_all, q_all, h, record, inputs(sigma), periods, together)
+    for t in range(count):
+        alone = readout(1)
         qp1, q1 = q_prev[t : t + 1].copy(), q[t : t + 1].copy()
-        integrate.measure_one(qp1, q1, h[t : t + 1], record, inputs(sigma[t]), 3, alone)
-        assert (qp1[0], q1[0]) == (qp3[t], q3[t])
-        for name in ("coefficients", "sums", "counts"):
+        integrate.measure_one(qp1, q1, h[t : t + 1], record, inputs(sigma[t]), periods, alone)
+        assert (qp1[0], q1[0]) == (qp_all[t], q_all[t])
+        for name in ("coefficients", "sums", "counts", "record"):
             assert np.array_equal(getattr(alone, name)[..., 0], getattr(together, name)[..., t])
+    assert together.counts[0].max() > 0  # some trajectories lose contact: flights tallied
 
 
 @pytest.mark.parametrize(("law", "exponent"), LAWS, ids=IDS)

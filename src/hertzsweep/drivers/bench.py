@@ -228,7 +228,9 @@ def batch_scene(trajectories: int, law: str = "contact") -> Scene:
 
 def bench_batch(counts: tuple[int, ...] = (1, 8, 16), repeats: int = 3) -> dict[str, Any]:
     """ns per trajectory-step of lockstep sweeps (best of ``repeats``) for 1, 8 and 16
-    trajectories, viscous and contact n = 3/2, readings and jumps included."""
+    trajectories, viscous and contact n = 3/2, readings and jumps included; and of the
+    readings' kernel alone (:func:`~hertzsweep.kernels.integrate.measure`, 20 periods of
+    the 16 trajectories at w = 0.97)."""
     out: dict[str, Any] = {}
     for law in ("viscous", "contact"):
         for count in counts:
@@ -239,7 +241,27 @@ def bench_batch(counts: tuple[int, ...] = (1, 8, 16), repeats: int = 3) -> dict[
             steps = run_sweep(small).steps * scene.sweep.frequency_ratios.size
             seconds = _best(lambda scene=scene: run_sweep(scene), repeats)
             out[f"{law}_ns_per_trajectory_step_{count}"] = seconds / steps * 1e9
+        out[f"measure_{law}_ns_per_trajectory_step_16"] = _measure_ns(batch_scene(16, law))
     return out
+
+
+def _measure_ns(scene: Scene, periods: int = 20) -> float:
+    """ns per trajectory-step of the readings' kernel on every trajectory of ``scene``
+    (best of 5), from the state 300 periods settle reach at w = 0.97."""
+    sigma = np.asarray(scene.excitation.sigma, dtype=float)
+    n = int(scene.solver.steps_per_period)
+    law = make_law(scene.damping.law, scene.damping.ratio, scene.damping.exponent)
+    h = np.full(sigma.size, scheme.step_size(0.97, n))
+    inputs = drive(scene, sigma)
+    q_prev, q = np.zeros(sigma.size), np.zeros(sigma.size)
+    integrate.advance_batch(q_prev, q, h, law, inputs, 300)
+
+    def run():
+        readout = integrate.new_readout(inputs.harmonics.size, sigma.size)
+        integrate.measure(q_prev.copy(), q.copy(), h, law, inputs, periods, readout)
+
+    run()
+    return _best(run, 5) / (periods * n * sigma.size) * 1e9
 
 
 def sweep_wall_time(scene: Scene) -> tuple[float, int]:
@@ -825,6 +847,10 @@ def run_all(quick: bool = False) -> dict[str, Any]:
         out[f"batch_ratio_to_floor_{law}_16"] = (
             out[f"batch_{law}_ns_per_trajectory_step_16"] / out["floor_ns_per_trajectory_step_16"]
         )
+    out["batch_measure_ratio_to_floor_viscous_16"] = (
+        out["batch_measure_viscous_ns_per_trajectory_step_16"]
+        / out["floor_ns_per_trajectory_step_16"]
+    )
     out["batch_ratio_to_divided_floor_contact_16"] = (
         out["batch_contact_ns_per_trajectory_step_16"]
         / out["floor_ns_per_trajectory_step_16_divided"]
