@@ -829,6 +829,27 @@ def sweep_process_times(scene: Scene, repeats: int = 5) -> dict[str, Any]:
     return out
 
 
+def model_costs(scene: Scene, repeats: int = 5) -> dict[str, Any]:
+    """Wall time of the scene's sweep with each model (``model.kind``), best of
+    ``repeats``, kernels loaded beforehand, and the ball model's over the single one's
+    (the same steps per period, the same dwells)."""
+    out: dict[str, Any] = {}
+    for kind in ("single", "ball"):
+        variant = replace(
+            scene,
+            model=replace(scene.model, kind=kind),
+            sweep=replace(scene.sweep, steady_state="settle"),
+        )
+        run_sweep(variant)
+        out[f"model_seconds_{kind}_sweep"] = _best(
+            lambda variant=variant: run_sweep(variant), repeats
+        )
+    out["model_ratio_ball_to_single"] = (
+        out["model_seconds_ball_sweep"] / out["model_seconds_single_sweep"]
+    )
+    return out
+
+
 def run_all(quick: bool = False) -> dict[str, Any]:
     """Every figure (what ``hertzsweep bench --json`` prints): numbers by name, and the
     comparison at equal accuracy as two lists of rows, ``equal_accuracy_references`` (one
@@ -867,7 +888,9 @@ def run_all(quick: bool = False) -> dict[str, Any]:
     if (CONFIGS / "default.toml").is_file():
         from ..core.config import load_scene
 
-        out.update(sweep_process_times(load_scene(CONFIGS / "default.toml")))
+        default = load_scene(CONFIGS / "default.toml")
+        out.update(sweep_process_times(default))
+        out.update(model_costs(default, repeats=2 if quick else 5))
     out.update(command_times(runs=2 if quick else 5, study_runs=1 if quick else 3))
     compared = equal_accuracy(DWELLS[:1] if quick else DWELLS)
     out["equal_accuracy_references"] = compared["references"]
