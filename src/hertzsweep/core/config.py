@@ -456,14 +456,13 @@ def scene_from_dict(
 BALL_MODEL_NEEDS = (  # (table, key, value) a "ball" scene must keep, and why
     ("rig", "geometry", "double-sphere-plane", "the ball sits between two planes"),
     ("solver", "method", "central-difference", "its scheme is the central difference"),
-    ("sweep", "steady_state", "settle", "its steady state is reached by settling"),
 )
 
 
 def check_model(scene: Scene) -> None:
     """Refuse a ``model.kind`` the rest of the scene cannot run (:data:`BALL_MODEL_NEEDS`:
-    the two-degree-of-freedom model integrates with the central difference and settles
-    to its steady state; shooting and the rk4 method serve the single model)."""
+    the two-degree-of-freedom model sits in the double sphere-plane rig and integrates
+    with the central difference; the rk4 method serves the single model)."""
     if scene.model.kind != "ball":
         return
     for table, key, value, why in BALL_MODEL_NEEDS:

@@ -47,7 +47,7 @@ import numpy as np
 
 from ..core.config import Scene
 from ..core.model import check_stability
-from ..errors import ConfigError, ConvergenceError, HertzsweepError
+from ..errors import ConvergenceError, HertzsweepError
 from .oscillator import Oscillator, Reading
 from .readings import Readings
 from .shooting import (
@@ -127,7 +127,7 @@ class Bifurcation:
     frequency_ratio : [1] w there.
     amplitude : [1] H1 of N/F_s there (NaN when harmonic 1 is not read).
     point : index of the branch point inserted there.
-    multipliers : complex[2] there.
+    multipliers : complex[n] there (2 for the single model, 4 for the ball model).
     """
 
     kind: str
@@ -144,7 +144,7 @@ class Branch(Readings):
     Arrays run over the points (P) and harmonics (K): ``frequency_ratio`` (P),
     ``amplitude``/``phase`` (P, K) [1]/[degree], ``mean_force``, ``force_max``,
     ``force_min``, ``contact_loss_fraction``, ``flight_tau`` (P), ``multipliers``
-    complex (P, 2), ``stable`` bool (P), ``arclength`` (P) in the scaled coordinates.
+    complex (P, n), ``stable`` bool (P), ``arclength`` (P) in the scaled coordinates.
     ``complete`` is true when the branch reached the far end of the w span; ``end`` says
     how it ended: ``"end"`` (the far end), ``"start"`` (it turned back and left the span
     where it began), ``"stalled"`` (the step fell below ``min_step``), ``"retraced"``
@@ -188,7 +188,7 @@ class BranchResult:
 # --------------------------------------------------------------------------- points
 @dataclass
 class _Point:
-    y: np.ndarray  # (z1, z2, w)
+    y: np.ndarray  # (z, w): z of the method's state, w last
     tangent: np.ndarray  # unit, oriented along the continuation
     evaluation: Evaluation
     arclength: float
@@ -198,7 +198,9 @@ def _tangent(evaluation: Evaluation, previous: np.ndarray) -> np.ndarray:
     """The unit null vector of ``G_y`` with ``t . previous > 0``: the solution of the
     bordered system ``[G_y; previous] t = (0, 0, 1)``, normalised."""
     bordered = np.vstack([evaluation.jacobian, previous])
-    t = np.linalg.solve(bordered, np.array([0.0, 0.0, 1.0]))
+    last = np.zeros(bordered.shape[0])
+    last[-1] = 1.0
+    t = np.linalg.solve(bordered, last)
     return t / np.linalg.norm(t)
 
 
@@ -272,10 +274,12 @@ class _Continuation:
                 f"w = {w_begin:g} to start the continuation from"
             )
         y = np.append(period.coordinates(orbit.state), w_begin)
-        evaluation = period(y[:2], w_begin)
+        evaluation = period(y[:-1], w_begin)
         direction = 1.0 if self.w_end > w_begin else -1.0
-        tangent = _tangent(evaluation, np.array([0.0, 0.0, direction]))
-        trace = np.empty((self.parameters.max_points, 6))
+        along_w = np.zeros(y.size)
+        along_w[-1] = direction
+        tangent = _tangent(evaluation, along_w)
+        trace = np.empty((self.parameters.max_points, 2 * y.size))
         trace[0] = np.concatenate((y, tangent))
         first = _Point(y, tangent, evaluation, 0.0)
         state = ContinuationState([first], trace, self.parameters.first_step)
@@ -290,7 +294,7 @@ class _Continuation:
         y = point.y + ds * t
         iterations = self.parameters.max_corrector_iterations
         for count in range(1, iterations + 1):
-            evaluation = self.period(y[:2], float(y[2]))
+            evaluation = self.period(y[:-1], float(y[-1]))
             if not evaluation.ok:
                 return None, count
             if evaluation.error <= self.parameters.corrector_tolerance and count > 1:
@@ -307,7 +311,7 @@ class _Continuation:
                 y = y - np.linalg.solve(system, rhs)
             except np.linalg.LinAlgError:
                 return None, count
-            if not np.all(np.isfinite(y)) or y[2] <= 0.0:
+            if not np.all(np.isfinite(y)) or y[-1] <= 0.0:
                 return None, count
         return None, iterations
 
@@ -316,12 +320,12 @@ class _Continuation:
         (``bridge_reach``), accepted within ``bridge_distance`` of the prediction."""
         for reach in self.parameters.bridge_reach:
             y = point.y + reach * point.tangent
-            w = float(y[2])
-            orbit = newton(self.period, self.period.state(y[:2], w), w)
+            w = float(y[-1])
+            orbit = newton(self.period, self.period.state(y[:-1], w), w)
             if not orbit.converged:
                 continue
             z = self.period.coordinates(orbit.state)
-            if np.max(np.abs(z - y[:2])) > self.parameters.bridge_distance:
+            if np.max(np.abs(z - y[:-1])) > self.parameters.bridge_distance:
                 continue
             evaluation = self.period(z, w)
             y_new = np.append(z, w)
@@ -379,15 +383,25 @@ class _CorrectorFailed(Exception):
 
 
 def _fold_function(point: _Point) -> float:
-    return float(point.tangent[2])
+    return float(point.tangent[-1])
 
 
 def _period_doubling_function(point: _Point) -> float:
-    return float(np.linalg.det(point.evaluation.monodromy + np.eye(2)))
+    monodromy = point.evaluation.monodromy
+    return float(np.linalg.det(monodromy + np.eye(monodromy.shape[0])))
 
 
 def _neimark_sacker_function(point: _Point) -> float:
-    return float(np.linalg.det(point.evaluation.monodromy) - 1.0)
+    """``det M - 1`` (the product of the two multipliers) for the single model; for a
+    larger state (the ball model's), whose other multipliers are the ball mode's, damped
+    far inside the unit circle, ``|mu|^2 - 1`` of the largest complex pair (or of the
+    largest multiplier where none is complex)."""
+    monodromy = point.evaluation.monodromy
+    if monodromy.shape == (2, 2):
+        return float(np.linalg.det(monodromy) - 1.0)
+    mu = sorted_multipliers(monodromy)
+    pair = mu[np.abs(mu.imag) > 0.0]
+    return float(abs(pair[0] if pair.size else mu[0]) ** 2 - 1.0)
 
 
 TEST_FUNCTIONS = {
@@ -399,6 +413,9 @@ TEST_FUNCTIONS = {
 
 def _is_complex_pair(point: _Point) -> bool:
     monodromy = point.evaluation.monodromy
+    if monodromy.shape != (2, 2):  # the multiplier nearest the unit circle is complex
+        mu = sorted_multipliers(monodromy)
+        return bool(abs(mu[np.argmin(np.abs(np.abs(mu) - 1.0))].imag) > 0.0)
     discriminant = np.trace(monodromy) ** 2 - 4.0 * np.linalg.det(monodromy)
     return bool(discriminant < 0.0)
 
@@ -501,7 +518,7 @@ def iterate(run: _Continuation, state: ContinuationState) -> None:
     _mark_kinked_fold(state, new)
     state.trace[len(state.points)] = np.concatenate((new.y, new.tangent))
     state.points.append(new)
-    run.report(state, float(new.y[2]))
+    run.report(state, float(new.y[-1]))
     if count <= parameters.easy_corrector:
         state.ds = min(state.ds * parameters.growth, parameters.max_step)
     elif count >= parameters.hard_corrector:
@@ -558,11 +575,11 @@ def _clip_to_span(
 ) -> _Point:
     """``new``, or if the step left the span, the point exactly on its edge: the branch
     ends there ("end" at ``w_end``, "start" where it turned back to ``w_begin``)."""
-    w_new = float(new.y[2])
+    w_new = float(new.y[-1])
     if not (w_new < run.low or w_new > run.high):
         return new
     edge = run.high if w_new > run.high else run.low
-    found = run.locate(point, new, state.ds, lambda p: float(p.y[2]) - edge)
+    found = run.locate(point, new, state.ds, lambda p: float(p.y[-1]) - edge)
     y_edge = found.y.copy()
     y_edge[2] = edge  # drop the residual of Brent's method (below 1e-12)
     state.ds = found.arclength - point.arclength
@@ -596,8 +613,8 @@ def _mark_kinked_fold(state: ContinuationState, new: _Point) -> None:
     way from the point before and goes the other way to ``new``)."""
     points = state.points
     if state.kinks and state.kinks[-1] == len(points) - 1 and len(points) >= 2:
-        before, at = points[-2].y[2], points[-1].y[2]
-        if (at - before) * (float(new.y[2]) - at) < 0.0:
+        before, at = points[-2].y[-1], points[-1].y[-1]
+        if (at - before) * (float(new.y[-1]) - at) < 0.0:
             state.marked[len(points) - 1] = "fold"
 
 
@@ -612,14 +629,15 @@ def _retraces(trace: np.ndarray, count: int, new: _Point, ds: float, sagitta: fl
     """
     if count < 4:
         return False
-    start = trace[: count - 3, :3]  # segments j -> j + 1, not the last two
-    chord = trace[1 : count - 2, :3] - start
+    size = new.y.size  # (z, w): 3 numbers, 5 for the ball model
+    start = trace[: count - 3, :size]  # segments j -> j + 1, not the last two
+    chord = trace[1 : count - 2, :size] - start
     length = np.linalg.norm(chord, axis=1)
     offset = np.einsum("ij,ij->i", new.y - start, chord)
     along = np.clip(offset / np.maximum(length, 1e-300) ** 2, 0.0, 1.0)
     distance = np.linalg.norm(start + along[:, None] * chord - new.y, axis=1)
     on_it = distance <= sagitta * length + 0.5 * ds
-    opposite = trace[: count - 3, 3:] @ new.tangent < -0.9
+    opposite = trace[: count - 3, size:] @ new.tangent < -0.9
     return bool(np.any(on_it & opposite))
 
 
@@ -645,10 +663,10 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     harmonics = list(oscillator.harmonics)
     h1 = harmonics.index(1) if 1 in harmonics else None
     readings: list[Reading] = []
-    multipliers = np.empty((len(ordered), 2), dtype=complex)
+    multipliers = np.empty((len(ordered), run.period.size), dtype=complex)
     for i, (point, _) in enumerate(ordered):
-        w = float(point.y[2])
-        _, reading = oscillator.measure(run.period.state(point.y[:2], w), w, 1)
+        w = float(point.y[-1])
+        _, reading = oscillator.measure(run.period.state(point.y[:-1], w), w, 1)
         readings.append(reading)
         multipliers[i] = sorted_multipliers(point.evaluation.monodromy)
     candidates = [i for i, (_, kind) in enumerate(ordered) if kind is not None]
@@ -657,7 +675,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     for i in kept:
         point, kind = ordered[i]
         amplitude = float(readings[i].amplitude[h1]) if h1 is not None else float("nan")
-        bifurcations.append(Bifurcation(kind, float(point.y[2]), amplitude, i, multipliers[i]))
+        bifurcations.append(Bifurcation(kind, float(point.y[-1]), amplitude, i, multipliers[i]))
 
     def stack(name: str) -> np.ndarray:
         return np.array([getattr(r, name) for r in readings])
@@ -665,7 +683,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     steps_measured = len(ordered) * oscillator.steps_per_period
     return Branch(
         sigma=oscillator.sigma,
-        frequency_ratio=np.array([p.y[2] for p, _ in ordered]),
+        frequency_ratio=np.array([p.y[-1] for p, _ in ordered]),
         amplitude=stack("amplitude"),
         phase=stack("phase"),
         mean_force=stack("mean_force"),
@@ -704,7 +722,7 @@ def _fold_clusters(
     Isolated folds and folds in contact are reported as located.
     """
     slope = np.array([abs(point.tangent[2]) for point, _ in ordered])
-    w = np.array([point.y[2] for point, _ in ordered])
+    w = np.array([point.y[-1] for point, _ in ordered])
     steep = np.flatnonzero(slope >= vertical)
     kept: list[int] = []
     cluster: list[int] = []
@@ -765,13 +783,6 @@ def run_branch(
         A continuation could not start (no periodic orbit at the first frequency). A
         branch that stops short is returned as it is (``Branch.end``).
     """
-    if scene.model.kind != "single":
-        raise ConfigError(
-            scene.source,
-            "model.kind",
-            f"{scene.model.kind!r} has no branch: continuation follows the periodic orbits "
-            "of the single model's period map",
-        )
     check_stability(scene)
     w_begin, w_end = start_end(scene)
     branches = []

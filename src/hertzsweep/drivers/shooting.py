@@ -107,16 +107,25 @@ class Orbit:
         """Floquet multipliers, largest modulus first (a complex pair: positive imaginary
         part first); NaN where no period was evaluated."""
         if not np.all(np.isfinite(self.monodromy)):
-            return np.full(2, np.nan + 0j)
+            return np.full(self.monodromy.shape[0], np.nan + 0j)
         return sorted_multipliers(self.monodromy)
 
     @property
     def stable(self) -> bool:
-        """Both multipliers inside the unit circle (asymptotically stable), judged as the
-        compiled walk judges (:func:`~hertzsweep.kernels.tangent.largest_multiplier`)."""
+        """Every multiplier inside the unit circle (asymptotically stable), judged as the
+        compiled walk judges (:func:`largest_multiplier`)."""
         if not self.converged or not np.all(np.isfinite(self.monodromy)):
             return False
-        return bool(tangent.largest_multiplier(self.monodromy) < 1.0 - STABILITY_MARGIN)
+        return bool(largest_multiplier(self.monodromy) < 1.0 - STABILITY_MARGIN)
+
+
+def largest_multiplier(monodromy: np.ndarray) -> float:
+    """The largest modulus of the monodromy's eigenvalues: the compiled walk's own 2 x 2
+    formula (:func:`~hertzsweep.kernels.tangent.largest_multiplier`) for the single model,
+    LAPACK's eigenvalues for a larger state (the ball model's 4 x 4)."""
+    if monodromy.shape == (2, 2):
+        return float(tangent.largest_multiplier(monodromy))
+    return float(np.max(np.abs(np.linalg.eigvals(monodromy))))
 
 
 def orbit_scale(sigma: float, zeta: float) -> float:
@@ -146,28 +155,38 @@ class PeriodMap:
         self.shape = oscillator.method.basis(oscillator.steps_per_period)
         self.basis = self.scale * self.shape  # x = basis @ z
         self.inverse = np.linalg.inv(self.basis)
-        self._derivative = np.zeros((2, 3))
+        self.size = self.basis.shape[0]  # 2 for the single model, 4 for the ball model
+        self._derivative = np.zeros((self.size, self.size + 1))
+
+    def vector(self, state: State) -> np.ndarray:
+        """``x``: the state's two members (each a float, or the ball model's float[2])."""
+        return np.concatenate((np.atleast_1d(state.q_prev), np.atleast_1d(state.q)))
 
     def coordinates(self, state: State) -> np.ndarray:
         """``z`` of a state (which must be at the step of the frequency it is used with)."""
-        return self.inverse @ np.array([state.q_prev, state.q])
+        return self.inverse @ self.vector(state)
 
     def state(self, z: np.ndarray, frequency_ratio: float) -> State:
-        x = self.basis @ z
-        return State(float(x[0]), float(x[1]), self.oscillator.step(frequency_ratio))
+        return self._state(self.basis @ z, self.oscillator.step(frequency_ratio))
+
+    def _state(self, x: np.ndarray, h: float) -> State:
+        if self.size == 2:
+            return State(float(x[0]), float(x[1]), h)
+        half = self.size // 2
+        return State(x[:half].copy(), x[half:].copy(), h)
 
     def __call__(self, z: np.ndarray, frequency_ratio: float) -> Evaluation:
         osc = self.oscillator
+        n = self.size
         x = self.basis @ z
         h = osc.step(frequency_ratio)
-        end, status = osc.period_map(State(float(x[0]), float(x[1]), h), self._derivative)
-        q_prev, q = end.q_prev, end.q
+        end, status = osc.period_map(self._state(x, h), self._derivative)
         derivative = self._derivative.copy()
-        monodromy = derivative[:, :2]
-        residual = (np.array([q_prev, q]) - x) / self.scale
-        jacobian = np.empty((2, 3))
-        jacobian[:, :2] = (monodromy - np.eye(2)) @ self.basis / self.scale
-        jacobian[:, 2] = derivative[:, 2] * (-h / frequency_ratio) / self.scale  # dh/dw = -h/w
+        monodromy = derivative[:, :n]
+        residual = (self.vector(end) - x) / self.scale
+        jacobian = np.empty((n, n + 1))
+        jacobian[:, :n] = (monodromy - np.eye(n)) @ self.basis / self.scale
+        jacobian[:, n] = derivative[:, n] * (-h / frequency_ratio) / self.scale  # dh/dw = -h/w
         ok = status == OK and bool(np.all(np.isfinite(residual)))
         return Evaluation(residual, jacobian, monodromy, ok)
 
@@ -210,6 +229,8 @@ def newton(
         monotonicity test in the spirit of Deuflhard's, on the affine-invariant corrections
         rather than on the residuals, which may rise once on the way in).
     """
+    if period.size != 2:
+        return _newton(period, state, frequency_ratio, monotone, max_iterations)
     osc = period.oscillator
     settings = newton_settings(period, monotone, max_iterations)
     residuals = np.full(max_iterations + 1, np.inf)
@@ -226,9 +247,43 @@ def newton(
     return Orbit(orbit, frequency_ratio, monodromy, tuple(residuals[:evaluations]), converged)
 
 
+def _newton(
+    period: PeriodMap, state: State, frequency_ratio: float, monotone: bool, max_iterations: int
+) -> Orbit:
+    """:func:`newton` for a state of more than two numbers (the ball model's four): the
+    compiled Newton's iteration (:func:`hertzsweep.kernels.tangent.newton`, its tolerance
+    and monotonicity test) with numpy's solve, each period compiled."""
+    z = period.coordinates(state)
+    residuals: list[float] = []
+    monodromy = np.full((period.size, period.size), np.nan)
+    previous = np.inf
+    for iteration in range(max_iterations + 1):
+        evaluation = period(z, frequency_ratio)
+        residuals.append(evaluation.error)
+        if not evaluation.ok:
+            break
+        monodromy = evaluation.monodromy
+        if evaluation.error <= NEWTON_TOLERANCE:
+            orbit = period.state(z, frequency_ratio)
+            return Orbit(orbit, frequency_ratio, monodromy, tuple(residuals), True)
+        if iteration == max_iterations:
+            break
+        try:
+            correction = np.linalg.solve(evaluation.jacobian[:, :-1], evaluation.residual)
+        except np.linalg.LinAlgError:
+            break
+        size = float(np.max(np.abs(correction)))
+        if not np.isfinite(size) or (monotone and size >= previous):
+            break
+        previous = size
+        z = z - correction
+    orbit = period.state(z, frequency_ratio)
+    return Orbit(orbit, frequency_ratio, monodromy, tuple(residuals), False)
+
+
 def mismatch(period: PeriodMap, before: State, after: State) -> float:
     """``|x(T) - x(0)|_inf / Q``: how far a state is from repeating after one period."""
-    return max(abs(after.q - before.q), abs(after.q_prev - before.q_prev)) / period.scale
+    return float(np.max(np.abs(period.vector(after) - period.vector(before)))) / period.scale
 
 
 def transient(period: PeriodMap, max_periods: int) -> Transient:
@@ -247,6 +302,8 @@ def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods:
     stable orbit (its residuals not kept), or, where none was reached (e.g. after a
     period doubling), the state where the integration stopped, not converged.
     """
+    if period.size != 2:
+        return _settle(period, state, frequency_ratio, max_periods)
     osc = period.oscillator
     monodromy = np.zeros((2, 2))
     a, q, periods, status, stable = tangent.settle(
@@ -264,6 +321,28 @@ def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods:
     if stable:
         return Orbit(State(a, q, state.h), frequency_ratio, monodromy, (), True)
     return Orbit(State(a, q, state.h), frequency_ratio, np.full((2, 2), np.nan), (np.inf,), False)
+
+
+def _settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods: int) -> Orbit:
+    """:func:`settle` for a state of more than two numbers: the compiled transient's steps
+    (blocks of :data:`TRANSIENT_BLOCK` periods to a one-period mismatch of
+    :data:`TRANSIENT_TOLERANCE`, then monotone Newton on a stable orbit or on), each block
+    one compiled call."""
+    osc = period.oscillator
+    integrated = 0
+    while integrated < max_periods:
+        count = min(TRANSIENT_BLOCK, max_periods - integrated)
+        state = osc.advance(state, frequency_ratio, count - 1)
+        after = osc.advance(state, frequency_ratio, 1)
+        integrated += count
+        close = mismatch(period, state, after) <= TRANSIENT_TOLERANCE
+        state = after
+        if close:
+            orbit = newton(period, state, frequency_ratio, monotone=True)
+            if orbit.stable:
+                return Orbit(orbit.state, frequency_ratio, orbit.monodromy, (), True)
+    nan = np.full((period.size, period.size), np.nan)
+    return Orbit(state, frequency_ratio, nan, (np.inf,), False)
 
 
 def find_orbit(period: PeriodMap, state: State, frequency_ratio: float) -> Orbit:
@@ -319,9 +398,14 @@ def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray)
     :func:`shooting_dwell` does, and the compiled loop resumes. Yields ``(positions,
     block, settled)`` as a strategy's walk.
     """
+    period = PeriodMap(oscillator)
+    if period.size != 2:  # the ball model: one dwell at a time (Newton in numpy)
+        for i, w in enumerate(frequencies):
+            state, reading, settled = shooting_dwell(oscillator, state, float(w))
+            yield slice(i, i + 1), Block.of(reading, state), np.array([settled])
+        return
     n = oscillator.steps_per_period
     steps = np.array([oscillator.step(w) for w in frequencies])
-    period = PeriodMap(oscillator)
     predict = PREDICT_RESIDUAL if continuous_monodromy(oscillator) else 0.0
     settings = newton_settings(period, monotone=True, predict=predict)
     settling = transient(period, oscillator.scene.sweep.max_settle_periods)
@@ -371,6 +455,7 @@ __all__ = [
     "Orbit",
     "PeriodMap",
     "find_orbit",
+    "largest_multiplier",
     "mismatch",
     "newton",
     "orbit_scale",

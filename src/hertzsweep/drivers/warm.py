@@ -6,7 +6,8 @@ a fresh install therefore pays about 1.5 s of compilation on each command's firs
 and the test suite about a minute in all. ``python -m hertzsweep.drivers.warm`` (run by
 ``make install``) runs tiny scenes through every driver path (the sweep in lockstep and
 one trajectory at a time, automatic settling, shooting, a trace, a branch; sweeps,
-shooting and a branch also with ``rk4``; the ball model's sweeps and trace) for every
+shooting and a branch also with ``rk4``; the ball model's sweeps, shooting, trace and
+branch) for every
 law type, one group of laws per process, so that the compilation is paid once, at
 install, spread over the cores. It changes no result: the cache holds what the first
 run would have compiled. :func:`load_kernels` loads a sweep case's kernels from that
@@ -62,7 +63,9 @@ def compile_law(law: str, exponent: float) -> str:
     )
     run_sweep(ball)
     run_sweep(ball, batched=False)
+    run_sweep(replace(ball, sweep=shooting))
     run_trace(ball, 0.92, periods=2)
+    run_branch(replace(ball, sweep=short))
     return f"{law} n={exponent}"
 
 

@@ -20,7 +20,9 @@ The state crossing the boundary is ``(q_prev, q)``, each float[T, 2] (float[2] f
 :func:`advance`): the moving mass's and the ball's displacement in the single model's q,
 at steps n-1 and n. One trajectory is a batch of one (:func:`measure_one` is
 :func:`measure`, :func:`advance` is :func:`advance_batch`), so they agree bit for bit by
-construction.
+construction. :func:`period_map` is one period of :func:`advance` with its exact
+derivatives by the state and the step (the monodromy matrix and ``dP/dh``), as
+:func:`.tangent.period_map` is the single model's.
 
 The readout is :class:`~.integrate.Readout` with a :data:`BALL_FIELDS` block: the lower
 contact is the one the transducer reads (``sums`` and ``counts`` hold its force and its
@@ -40,7 +42,7 @@ from numba import njit
 from . import CACHE, integrate
 from .integrate import TALLY_START, Readout, _finish, _lockin_tables, tally
 from .integrate import inputs as inputs  # the single model's drive, as every method's
-from .laws import terms
+from .laws import slopes, terms
 from .scheme import NON_FINITE, OK, STOPPED, UNSTABLE, forcing, period_tables
 from .stop import requested
 
@@ -105,19 +107,30 @@ def step(model, u_prev, u, l_prev, l, load, h, c0):
     root_u, cu = contact_terms(model.law, u)
     root_l, cl = contact_terms(model.law, l)
     au = model.upper
-    al = model.lower
     big = model.load
-    mu = model.mass_ratio
-    gu = au * cu * h
-    gl = al * cl * h
     ru = u * root_u
-    el = 2.0 * al * (l - l_prev)
+    el = 2.0 * model.lower * (l - l_prev)
     r1 = c0 * (load - ru) + 2.0 * au * (u - u_prev) + el
-    r2 = c0 * (big - 1.0 + ru - big * (l * root_l)) + mu * el
-    mass_u = au + gu
-    mass_l = mu * al + gl
-    inv = 1.0 / (mass_u * mass_l + al * gu)
-    return root_u, root_l, cu, cl, (r1 * mass_l - al * r2) * inv, (mass_u * r2 + gu * r1) * inv
+    r2 = c0 * (big - 1.0 + ru - big * (l * root_l)) + model.mass_ratio * el
+    x, y = solve(model, system(model, cu, cl, h), r1, r2)
+    return root_u, root_l, cu, cl, x, y
+
+
+@njit(cache=CACHE, inline="always")
+def system(model, cu, cl, h):
+    """The step's matrix ``[[a_u + g_u, a_l], [-g_u, mu a_l + g_l]]`` as ``(g_u, a_u +
+    g_u, mu a_l + g_l, 1 / det)`` (c of the law at step n)."""
+    gu = model.upper * cu * h
+    mass_u = model.upper + gu
+    mass_l = model.mass_ratio * model.lower + model.lower * cl * h
+    return gu, mass_u, mass_l, 1.0 / (mass_u * mass_l + model.lower * gu)
+
+
+@njit(cache=CACHE, inline="always")
+def solve(model, matrix, r1, r2):
+    """``(x, y)`` of the step's system with the right-hand side ``(r1, r2)`` (Cramer)."""
+    gu, mass_u, mass_l, inv = matrix
+    return (r1 * mass_l - model.lower * r2) * inv, (mass_u * r2 + gu * r1) * inv
 
 
 @njit(cache=CACHE, inline="always")
@@ -204,6 +217,147 @@ def advance(q_prev, q, h, model, drive, periods):
     b = np.array(q, dtype=float).reshape(1, 2)
     status, _ = advance_batch(a, b, np.array([h], dtype=float), model, drive, periods)
     return a[0], b[0], status
+
+
+@njit(cache=CACHE)
+def contact_slopes(law, d, root):
+    """:func:`.laws.slopes` of one contact, compiled on its own (as :func:`contact_terms`)."""
+    return slopes(law, d, root)
+
+
+@njit(cache=CACHE)
+def _linear_step(model, row, load, h, c0, jacobian):
+    """One :func:`step` of ``row`` (float[4]: ``u[n-1], u, l[n-1], l``, in place) with
+    its derivatives: ``jacobian`` (float[2, 5]) gets ``d(x, y) / d(u[n-1], u, l[n-1], l,
+    h)``. Returns ``(sqrt(u), sqrt(l))``.
+
+    Differentiating the module docstring's system ``A (x, y) = r`` gives ``A d(x, y) = dr
+    - dA (x, y)`` with the same matrix ``A``; ``dA`` is ``[[dg_u, 0], [-dg_u, dg_l]]``,
+    ``dg = a (c' h dd + c dh)``, and ``dr`` is ``r``'s partial derivatives (``R' = dR/dd``,
+    ``dc0/dh = 4 h / 3``; the load does not depend on h). Both are taken on the side of
+    ``d = 0`` the step is on, as :func:`.laws.slopes`."""
+    u_prev, u, l_prev, l = row[0], row[1], row[2], row[3]
+    root_u, root_l, cu, cl, x, y = step(model, u_prev, u, l_prev, l, load, h, c0)
+    stiff_u, dcu = contact_slopes(model.law, u, root_u)
+    stiff_l, dcl = contact_slopes(model.law, l, root_l)
+    au = model.upper
+    al = model.lower
+    big = model.load
+    mu = model.mass_ratio
+    matrix = system(model, cu, cl, h)
+    dc0 = (4.0 / 3.0) * h
+    ru = u * root_u
+    # (dr1, dr2, dg_u, dg_l) by u[n-1], u, l[n-1], l, h
+    for k in range(5):
+        if k == 0:
+            dr1, dr2, dgu, dgl = -2.0 * au, 0.0, 0.0, 0.0
+        elif k == 1:
+            dr1, dr2, dgu, dgl = 2.0 * au - c0 * stiff_u, c0 * stiff_u, au * dcu * h, 0.0
+        elif k == 2:
+            dr1, dr2, dgu, dgl = -2.0 * al, -2.0 * mu * al, 0.0, 0.0
+        elif k == 3:
+            dr1 = 2.0 * al
+            dr2 = 2.0 * mu * al - c0 * big * stiff_l
+            dgu, dgl = 0.0, al * dcl * h
+        else:
+            dr1 = dc0 * (load - ru)
+            dr2 = dc0 * (big - 1.0 + ru - big * (l * root_l))
+            dgu, dgl = au * cu, al * cl
+        jacobian[0, k], jacobian[1, k] = solve(
+            model, matrix, dr1 - dgu * x, dr2 + dgu * x - dgl * y
+        )
+    row[0], row[1] = u, u_prev + x
+    row[2], row[3] = l, l_prev + y
+    return root_u, root_l
+
+
+@njit(cache=CACHE)
+def _carry(tangent, jacobian):
+    """The chain rule through one step: ``tangent`` (float[4, 5], the derivatives of
+    ``u[n-1], u, l[n-1], l`` by the period's ``(x_0, h)``) becomes that of ``u, u[n+1],
+    l, l[n+1]``, in place, with ``jacobian`` of :func:`_linear_step`."""
+    for k in range(5):
+        dx = jacobian[0, 4] if k == 4 else 0.0
+        dy = jacobian[1, 4] if k == 4 else 0.0
+        for i in range(4):
+            dx += jacobian[0, i] * tangent[i, k]
+            dy += jacobian[1, i] * tangent[i, k]
+        up, u, lp, l = tangent[0, k], tangent[1, k], tangent[2, k], tangent[3, k]
+        tangent[0, k], tangent[1, k] = u, up + dx
+        tangent[2, k], tangent[3, k] = l, lp + dy
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def period_map(q_prev, q, h, model, drive, derivative):
+    """One period of the ball model (level ``drive.sigma[0]``) with its exact derivatives.
+
+    The trajectory is :func:`advance_batch`'s, step for step (:func:`step` on the same
+    operands), so the state returned is one period of :func:`advance`, bit for bit. The
+    derivatives are carried through the steps alongside it (:func:`_linear_step`,
+    :func:`_carry`), in the compressions, and turned into the displacements' at the end
+    (both are affine in each other).
+
+    Parameters
+    ----------
+    q_prev, q : float64[2]
+        The moving mass's and the ball's displacement at steps -1 and 0, excitation phase 0:
+        the state ``x = (q_prev[0], q_prev[1], q[0], q[1])``.
+    h : float
+        Step in tau, ``2 pi / (w N)``.
+    model, drive
+        The model's record (:class:`Ball`) and the input (:class:`.integrate.Drive`).
+    derivative : float64[4, 5]
+        Output: ``d(x_end) / d(x, h)``, ``x_end`` ordered as ``x``; the first four columns
+        are the monodromy matrix, the fifth is ``d(x_end)/dh``.
+
+    Returns
+    -------
+    tuple
+        ``(q_prev, q, status)``: new float64[2] after one period, and the status as
+        :func:`_status` gives it (:data:`~.scheme.UNSTABLE` from the period's peak roots,
+        :data:`~.scheme.NON_FINITE` for the state or the derivative, then
+        :data:`~.scheme.STOPPED`).
+    """
+    sigma = drive.sigma[0]
+    table = drive.sin_table
+    c0 = h * h * (2.0 / 3.0)
+    row = np.empty(4)
+    row[0], row[2] = compressions(model, q_prev[0], q_prev[1])
+    row[1], row[3] = compressions(model, q[0], q[1])
+    # the derivatives of u[-1], u, l[-1], l by (x, h): compressions() is affine
+    tangent = np.zeros((4, 5))
+    by_u = (2.0 / 3.0) / model.upper
+    by_l = (2.0 / 3.0) / model.lower
+    for n in (0, 1):  # step -1 from columns 0, 1; step 0 from columns 2, 3
+        tangent[n, 2 * n], tangent[n, 2 * n + 1] = by_u, -by_u
+        tangent[n + 2, 2 * n + 1] = by_l
+    jacobian = np.empty((2, 5))
+    peak_u = 0.0
+    peak_l = 0.0
+    for j in range(table.shape[0]):
+        root_u, root_l = _linear_step(model, row, forcing(sigma, table[j]), h, c0, jacobian)
+        peak_u = root_u if root_u > peak_u else peak_u
+        peak_l = root_l if root_l > peak_l else peak_l
+        _carry(tangent, jacobian)
+    # back to the displacements: q2 = 3/2 a_l (l - 1), q1 = q2 + 3/2 a_u (u - 1)
+    finite = True
+    for k in range(5):
+        for n in (0, 1):
+            ball_k = 1.5 * model.lower * tangent[n + 2, k]
+            derivative[2 * n, k] = ball_k + 1.5 * model.upper * tangent[n, k]
+            derivative[2 * n + 1, k] = ball_k
+            finite = finite and math.isfinite(derivative[2 * n, k] + ball_k)
+    q1p, q2p = displacements(model, row[0], row[2])
+    q1, q2 = displacements(model, row[1], row[3])
+    new_prev = np.array([q1p, q2p])
+    new = np.array([q1, q2])
+    if unstable(model, peak_u, peak_l, h):
+        return new_prev, new, UNSTABLE
+    if not (finite and math.isfinite(q1p + q2p + q1 + q2)):
+        return new_prev, new, NON_FINITE
+    if requested(drive.stop):
+        return new_prev, new, STOPPED
+    return new_prev, new, OK
 
 
 @njit(cache=CACHE, inline="always")

@@ -117,8 +117,19 @@ METHODS = {
 }
 
 
-def _no_period_map(*args):
-    raise NotImplementedError("the ball model has no period map (it settles)")
+def ball_difference_basis(steps_per_period: int) -> np.ndarray:
+    """The ball model's :func:`difference_basis`, one per body: ``x = (q1[-1], q2[-1],
+    q1[0], q2[0]) = Q B z`` with ``z = (q1[0], v1, q2[0], v2) / Q``, ``v = (q[0] - q[-1]) /
+    theta``: each body's displacement and velocity over w."""
+    theta = 2.0 * np.pi / steps_per_period
+    return np.array(
+        [
+            [1.0, -theta, 0.0, 0.0],
+            [0.0, 0.0, 1.0, -theta],
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ]
+    )
 
 
 BALL_METHODS = {
@@ -126,15 +137,15 @@ BALL_METHODS = {
         "central-difference",
         "2",
         ball,
-        _no_period_map,
-        difference_basis,
+        ball.period_map,
+        ball_difference_basis,
         state_shape=(2,),
         record_columns=ball.BALL_RECORD_COLUMNS,
     ),
 }
-"""The two-degree-of-freedom model's methods (:mod:`.ball`): it settles to its steady
-state from rest, so it has no period map and no start from ``(q, q')``
-(``hertzsweep.core.config.check_model`` refuses shooting)."""
+"""The two-degree-of-freedom model's methods (:mod:`.ball`): the central difference, its
+one-period map with the exact 4 x 5 Jacobian for shooting and continuation (Newton in
+numpy: :func:`hertzsweep.drivers.shooting.newton`)."""
 
 MODELS = {"single": METHODS, "ball": BALL_METHODS}
 """Each ``model.kind``'s methods."""

@@ -409,7 +409,8 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
     """The branch dataset of a :class:`~hertzsweep.drivers.continuation.BranchResult`.
 
     Dimensions ``sigma``, ``point`` (points in arclength order, NaN padded; ``stable``
-    padded with -1), ``harmonic``, ``multiplier`` (0, 1: largest modulus first) and
+    padded with -1), ``harmonic``, ``multiplier`` (largest modulus first: 2 for the single
+    model, 4 for the ball model) and
     ``bifurcation`` (located bifurcations in arclength order, padded with NaN, ``""``
     and -1; at least one slot).
     """
@@ -452,7 +453,11 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "point": ("point", np.arange(n_points, dtype=INDEX), attrs("point")),
         "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
-        "multiplier": ("multiplier", np.arange(2, dtype=INDEX), attrs("multiplier")),
+        "multiplier": (
+            "multiplier",
+            np.arange(multipliers.shape[-1], dtype=INDEX),
+            attrs("multiplier"),
+        ),
         "bifurcation": ("bifurcation", np.arange(n_found, dtype=INDEX), attrs("bifurcation")),
     }
     title = (
