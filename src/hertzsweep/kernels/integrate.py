@@ -300,9 +300,10 @@ FOURIER = TALLY + len(TALLY_START)
 
 
 @njit(cache=CACHE, inline="always")
-def _cell(t, row):
-    """``(block, index)`` of trajectory t's value of ``row`` in the working array."""
-    return t // LANES, row * LANES + t % LANES
+def _lane(t):
+    """``(block, i)``: trajectory t is lane i of that block (its value of row r at
+    ``i + r * LANES``)."""
+    return t // LANES, t % LANES
 
 
 @njit(cache=CACHE)
@@ -317,7 +318,7 @@ def _blocks(q_prev, q, s, drive):
     lanes = raw[first : first + size].reshape(shape)
     a, b, k = s.fixed
     for t in range(count):
-        block, i = _cell(t, 0)
+        block, i = _lane(t)
         row = lanes[block]
         row[i + D_PREV * LANES] = to_compression(q_prev[t])
         row[i + D * LANES] = to_compression(q[t])
@@ -415,18 +416,14 @@ def measure(q_prev, q, h, law, drive, periods, readout):
                 row = lanes[block]
                 width = min(LANES, count - block * LANES)
                 _step_block(law, row, width, table[j])
+                excess = row[X * LANES : (X + 1) * LANES]
                 for i in range(index.shape[0]):
                     first = (FOURIER + 2 * i) * LANES
-                    _lockin_block(
-                        row[first : first + 2 * LANES],
-                        row[X * LANES : (X + 1) * LANES],
-                        width,
-                        drive.cos_table[index[i]],
-                        drive.sin_table[index[i]],
-                    )
+                    ck, sk = drive.cos_table[index[i]], drive.sin_table[index[i]]
+                    _lockin_block(row[first : first + 2 * LANES], excess, width, ck, sk)
             if readout.stride > 0 and (p * n + j) % readout.stride == 0:
                 for t in range(count):
-                    block, i = _cell(t, 0)
+                    block, i = _lane(t)
                     row = lanes[block]
                     _sample(
                         readout.record[sample, :, t],
@@ -443,7 +440,7 @@ def measure(q_prev, q, h, law, drive, periods, readout):
             return status, bad
     fourier = np.empty((2, drive.harmonics.shape[0]))
     for t in range(count):
-        block, i = _cell(t, 0)
+        block, i = _lane(t)
         row = lanes[block]
         for k in range(fourier.shape[1]):
             fourier[0, k] = row[i + (FOURIER + 2 * k) * LANES]
@@ -459,7 +456,7 @@ def measure(q_prev, q, h, law, drive, periods, readout):
 def _state_into(lanes, count, q_prev, q):
     """The blocks' state as displacements, into ``q_prev``, ``q`` (float[T])."""
     for t in range(count):
-        block, i = _cell(t, 0)
+        block, i = _lane(t)
         q_prev[t] = to_displacement(lanes[block, i + D_PREV * LANES])
         q[t] = to_displacement(lanes[block, i + D * LANES])
 
@@ -471,7 +468,7 @@ def _block_status(lanes, count, limit, stop):
     d_prev = np.empty(count)
     d = np.empty(count)
     for t in range(count):
-        block, i = _cell(t, 0)
+        block, i = _lane(t)
         peak[t] = lanes[block, i + PEAK * LANES]
         d_prev[t] = lanes[block, i + D_PREV * LANES]
         d[t] = lanes[block, i + D * LANES]
