@@ -137,6 +137,27 @@ def test_observed_order_two_without_contact_loss_and_richardson_check():
     assert 1 / 1.3 < ratio < 1.3
 
 
+def test_ball_model_ladder_has_shooting_rungs():
+    """The ball model's ladder holds shooting rungs too (its 4-dimensional map), and a
+    shooting rung reads what the settled rung at the same N reads: 1000 settling periods
+    leave exp(-2 pi 0.0045 0.96 1000) ~ 1e-12 of the transient, Newton's residual is
+    1e-10 of the orbit scale, so the two differ by far less than 1e-7 of H1; the central
+    difference's own error between N = 256 and 512 is about 1e-3 of it."""
+    scene = load_scene(
+        CONFIGS / "default.toml",
+        ["model.kind=ball", "excitation.sigma=[0.01]", "sweep.start=0.96", "sweep.stop=0.965"],
+    )
+    cd = ("central-difference",)
+    ladder = build_ladder(scene, (256, 512), (1000,), shooting=True, methods=cd)
+    shots = [s for s in ladder.settings if s.steady_state == "shooting"]
+    assert {s.steps_per_period for s in shots} == {256, 512}
+    report = measure_accuracy(scene, ladder)
+    by_label = {r.setting.label: r.result.amplitude[..., 0] for r in report.rungs}
+    shot, settled = by_label["N=256 shooting"], by_label["N=256 settle=1000"]
+    assert np.max(np.abs(shot - settled)) < 1e-7 * np.max(settled)
+    assert np.max(np.abs(by_label["N=512 shooting"] - shot)) > 1e-4 * np.max(settled)
+
+
 def test_contact_law_n0_is_first_order():
     # Contact damping n = 0 jumps from 0 to 2 zeta q' at impact, inside a step: the scheme
     # does not locate the instant, so the error is first order with a constant that
@@ -299,7 +320,7 @@ def test_cli_accuracy_spans_methods_and_its_recommendation_reproduces(accuracy_r
     recommended = labels.index(ds.attrs["recommended"])
     # 1e-5 is out of the central difference's reach below N = 256 (2e-3 at N = 256)
     assert str(ds.method.values[recommended]) == "rk4"
-    assert "reproduce: hertzsweep sweep SCENE --set solver.method=rk4" in stdout
+    assert f"reproduce: hertzsweep sweep {scene_file} --set solver.method=rk4" in stdout
     # the printed --set options reproduce the rung: its error against the reference again
     runs = {}
     for index in (recommended, len(labels) - 1):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shlex
+
 import click
 
 from ..core.model import check_stability
@@ -75,6 +77,7 @@ def accuracy_command(
     ladder = build_ladder(scene, steps, settle, quick, methods=methods)
     with progress_bar(len(ladder.settings), "accuracy", not quiet, unit="setting") as progress:
         report = ACCURACY.run(scene, ladder, target, progress)
+    report.scene_arguments = shlex.join([scene_file, *(f"--set={item}" for item in overrides)])
     options.write_result(ACCURACY, report, scene, output)
 
 

@@ -263,7 +263,6 @@ def build_ladder(
     reference must be above it.
     """
     methods = _ladder_methods(scene, methods)
-    shooting = shooting and scene.model.kind == "single"  # the ball model settles only
     raw_settle = settle if settle is not None else (QUICK_SETTLE if quick else DEFAULT_SETTLE)
     settles = [s if isinstance(s, tuple) else parse_settle(s) for s in raw_settle]
     base = Setting.of_scene(scene)
@@ -586,6 +585,8 @@ class AccuracyReport:
     target_margin : the reference's estimated H1 error added to each rung's error when
         checking it against the target.
     notes : what was skipped or failed, and why.
+    scene_arguments : the scene file and the ``--set`` options it was run with, as a
+        shell would take them (the printed reproduction starts with them).
     """
 
     rungs: list[Rung]
@@ -597,6 +598,7 @@ class AccuracyReport:
     target: float | None = None
     target_margin: float = 0.0
     notes: list[str] = field(default_factory=list)
+    scene_arguments: str = "SCENE"
 
     @property
     def reference(self) -> Rung:

@@ -244,7 +244,8 @@ def _recommendation(report: AccuracyReport) -> str:
             f" ({ratio:.2f}x the time of the scene's {scene_rung.setting.label}, whose error "
             f"is {scene_error:.2e})"
         )
-    return f"{text}\nreproduce: hertzsweep sweep SCENE {rung.setting.set_options}"
+    command = f"hertzsweep sweep {report.scene_arguments} {rung.setting.set_options}"
+    return f"{text}\nreproduce: {command}"
 
 
 __all__ = [
