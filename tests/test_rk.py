@@ -157,7 +157,7 @@ def test_crossing_is_the_hermite_interpolants_root():
     # is the cubic's root in (0, 1) to round-off (1e-12 of the step: the root's condition
     # number is below 1e3 for these slopes), the one nearest the start when it has three
     rng = np.random.default_rng(7)
-    worst, tested = 0.0, 0
+    worst, bracketed, tested = 0.0, 0.0, 0
     for _ in range(2000):
         q0, q1 = -1.5 + rng.uniform(-0.2, 0.2, 2) * np.array([1.0, -1.0])
         v0, v1, h = rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0), rng.uniform(0.01, 0.5)
@@ -165,11 +165,32 @@ def test_crossing_is_the_hermite_interpolants_root():
         roots = np.roots(c) if abs(c[0]) > 1e-14 else np.roots(c[1:])
         inside = np.sort([r.real for r in roots if abs(r.imag) < 1e-9 and 0 <= r.real <= 1])
         slope = abs(np.polyval(np.polyder(c), inside))
+        if (q0 + 1.5) * (q1 + 1.5) >= 0.0:  # no crossing: the kernels do not ask
+            continue
+        found = rk._crossing(q0, v0, q1, v1, h)
+        # wherever the fraction was found (Newton's untested steps or, failing them, the
+        # bracketed search), it is inside the step and H + 3/2 vanishes there to round-off
+        assert 0.0 < found < 1.0 and abs(np.polyval(c, found)) <= 1e-14
         if inside.size != 1 or slope.min() < 1e-3:  # three roots, or a graze: ill-posed
             continue
-        worst = max(worst, abs(rk._crossing(q0, v0, q1, v1, h) - inside[0]))
+        worst = max(worst, abs(found - inside[0]))
+        chord = c[3] / (c[3] - (q1 + 1.5))
+        bracketed = max(bracketed, abs(rk._bracketed(tuple(c[::-1]), chord) - inside[0]))
         tested += 1
-    assert tested > 500 and worst <= 1e-12, (tested, worst)
+    assert tested > 500 and worst <= 1e-12 and bracketed <= 1e-12, (tested, worst, bracketed)
+    # near-grazing crossings, H + 3/2 = e (s - r) + 2 (s - r)^3 with slope e at the root r:
+    # Newton's untested steps converge slowly there (about 2/3 a step), and the bracketed
+    # search finds the root; where e is not small the untested steps find it themselves
+    h = 0.2
+    for e in (1e-8, 1e-6, 1e-3, 1.0):
+        for r in (0.1, 0.4, 0.8):
+            line = np.polynomial.Polynomial([-r, 1.0])
+            p = 2.0 * line**3 + e * line
+            q0, q1 = p(0.0) - 1.5, p(1.0) - 1.5
+            v0, v1 = p.deriv()(0.0) / h, p.deriv()(1.0) / h
+            found = rk._crossing(q0, v0, q1, v1, h)
+            # the root's condition number is 1 / e: round-off of 1e-16 moves it 1e-16 / e
+            assert abs(found - r) <= max(1e-12, 1e-15 / e) or abs(p(found)) <= 1e-15, (e, r)
 
 
 # ------------------------------------------------------------- period map, shooting, branch

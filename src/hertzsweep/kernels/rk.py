@@ -86,6 +86,7 @@ WINDOW = 1.0  # tau on the contact side of a crossing over which its singular te
 # integrated exactly: the steps beyond contribute O(h^4 WINDOW^(-3/2)) together, below the
 # method's own error; a longer window costs more steps of arithmetic at every crossing
 TINY = 1e-300  # a compression on the contact side of d = 0 whose force is nothing
+SIXTH = 1.0 / 6.0  # Simpson's weight, multiplied by (a division per use costs the divider)
 
 
 def tables(steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
@@ -192,19 +193,42 @@ def _rk4_tangent(law, y, tangents, h, loads, side):
     return q_new, v_new, (x1, x2, x3, x4), dq_new, dv_new
 
 
+NEWTON_STEPS = 4  # Newton steps from the chord's root that :func:`_crossing` takes
+# without a test: the chord's root is off by about the curvature of H over the step
+# (1e-2 and below), so the third step lands at round-off and the fourth shows it
+
+
 @njit(cache=CACHE)
 def _crossing(q0, v0, q1, v1, h):
     """The fraction of a step where its cubic Hermite interpolant of q crosses
-    ``q = -3/2`` (d = 0): Newton's method from the chord's root, kept inside the bracket
-    by bisection where a step would leave it (the ends are on either side), to round-off.
-    """
+    ``q = -3/2`` (d = 0), to round-off: :data:`NEWTON_STEPS` Newton steps from the
+    chord's root with no test between them (no branch to mispredict: a crossing costs
+    the steps' arithmetic alone), accepted when the last one is below 1e-9 and inside
+    the step; otherwise (a grazing crossing, a flat slope) :func:`_bracketed`."""
     c0 = q0 + 1.5  # H(s) + 3/2 = c0 + c1 s + c2 s^2 + c3 s^3
     c1 = h * v0
     c2 = 3.0 * (q1 - q0) - h * (2.0 * v0 + v1)
     c3 = 2.0 * (q0 - q1) + h * (v0 + v1)
+    chord = c0 / (c0 - (q1 + 1.5))
+    s = chord
+    step = 1.0
+    for _ in range(NEWTON_STEPS):
+        f = c0 + s * (c1 + s * (c2 + s * c3))
+        step = f / (c1 + s * (2.0 * c2 + 3.0 * s * c3))
+        s -= step
+    if abs(step) <= 1e-9 and 0.0 < s < 1.0:  # False with a NaN
+        return s
+    return _bracketed((c0, c1, c2, c3), chord)
+
+
+@njit(cache=CACHE)
+def _bracketed(c, s):
+    """The root in (0, 1) of the cubic ``c = (c0, c1, c2, c3)``, ``c0 + c1 s + c2 s^2 + c3
+    s^3``, whose values at 0 and 1 differ in sign: Newton's method from ``s``, kept inside
+    the bracket by bisection where a step would leave it, to round-off."""
+    c0, c1, c2, c3 = c
     lo, hi = 0.0, 1.0
     rising = c0 < 0.0  # the sign of H + 3/2 at s = 0 is c0's; at s = 1 the other
-    s = c0 / (c0 - (q1 + 1.5))  # the chord's root
     for _ in range(100):
         f = c0 + s * (c1 + s * (c2 + s * c3))
         if (f < 0.0) == rising:
@@ -274,7 +298,7 @@ def _singular_terms(law, crossing):
     n = singular_exponent(law)
     if n < 0.0 or a <= 0.0:  # viscous: c q' is smooth
         return hertz, none, none
-    an = a**n
+    an = _power(a, n)
     dan = _scale(n * an / a, da)  # of a^n
     first = none
     if n != math.floor(n) and n < 2.5:
@@ -304,25 +328,35 @@ def _power(s, p):
         return s * math.sqrt(s)
     if p == 0.5:
         return math.sqrt(s)
+    if p == 1.0:
+        return s
     return s**p
 
 
 @njit(cache=CACHE, inline="always")
-def _defects(p, span, powers, impact):
+def _inverses(p):
+    """``(1 / (p + 1), 1 / (p + 2))``: what :func:`_defects` divides by, formed once a
+    crossing (a division costs the divider as much as a square root)."""
+    return 1.0 / (p + 1.0), 1.0 / (p + 2.0)
+
+
+@njit(cache=CACHE, inline="always")
+def _defects(inverses, span, powers, impact):
     """For ``g = s^p`` over one step spanning ``span = (lo, hi)`` in s, ``powers = (g(lo),
-    g(mid), g(hi))``: ``(D, Dq)``, the exact integral of g minus RK4's quadrature of it
-    (Simpson's rule) and the exact double integral (the displacement it adds at the
-    step's end) minus RK4's. ``impact``: s grows with tau (the step starts at lo), else
-    it falls (the step starts at hi)."""
+    g(mid), g(hi))``, ``inverses`` of p (:func:`_inverses`): ``(D, Dq)``, the exact
+    integral of g minus RK4's quadrature of it (Simpson's rule) and the exact double
+    integral (the displacement it adds at the step's end) minus RK4's. ``impact``: s
+    grows with tau (the step starts at lo), else it falls (the step starts at hi)."""
     lo, hi = span
     g_lo, g_mid, g_hi = powers
     step = hi - lo
-    one = (hi * g_hi - lo * g_lo) / (p + 1.0)
-    two = (hi * hi * g_hi - lo * lo * g_lo) / (p + 2.0)
-    defect = one - step / 6.0 * (g_lo + 4.0 * g_mid + g_hi)
+    sixth = step * SIXTH
+    one = (hi * g_hi - lo * g_lo) * inverses[0]
+    two = (hi * hi * g_hi - lo * lo * g_lo) * inverses[1]
+    defect = one - sixth * (g_lo + 4.0 * g_mid + g_hi)
     if impact:  # int (tau_b - tau) g: tau_b at hi
-        return defect, hi * one - two - step * step / 6.0 * (g_lo + 2.0 * g_mid)
-    return defect, two - lo * one - step * step / 6.0 * (g_hi + 2.0 * g_mid)
+        return defect, hi * one - two - step * sixth * (g_lo + 2.0 * g_mid)
+    return defect, two - lo * one - step * sixth * (g_hi + 2.0 * g_mid)
 
 
 @njit(cache=CACHE, inline="always")
@@ -389,10 +423,20 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
     ddq = ZERO
     ddv = ZERO
     terms3 = _singular_terms(law, crossing)
+    inverses = (_inverses(terms3[0][1]), _inverses(terms3[1][1]), _inverses(terms3[2][1]))
+    k = fourier.shape[0]
+    above = inverses  # of s^(p + 1), for the Fourier integrals' first-order phase term
+    if k > 0:
+        above = (
+            _inverses(terms3[0][1] + 1.0),
+            _inverses(terms3[1][1] + 1.0),
+            _inverses(terms3[2][1] + 1.0),
+        )
+    per_h = 1.0 / h
+    total = 0.0  # the defect of the integral of x, added to sums[0] at the end
     lo, hi = 0.0, first
     dlo, dhi = ZERO, dfirst
     limit = min(WINDOW, reach)
-    k = fourier.shape[0]
     at_lo = (0.0, 0.0, 0.0)  # each term's s^p at lo (the last piece's hi)
     while True:
         mid = 0.5 * (lo + hi)
@@ -404,7 +448,7 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
             g_mid, g_hi = _power(mid, p), _power(hi, p)
             at_hi = _set(at_hi, t, g_hi)
             powers = (at_lo[t], g_mid, g_hi)
-            defect, shift = _defects(p, (lo, hi), powers, impact)
+            defect, shift = _defects(inverses[t], (lo, hi), powers, impact)
             arm = hi if impact else -lo  # tau_b - tau_e
             moment = shift - defect * arm
             dv -= beta * defect
@@ -417,18 +461,19 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
                 dmoment = _axpy(-defect, darm, _axpy(-arm, ddefect, dshift))
                 ddv = _axpy(-defect, dbeta, _axpy(-beta, ddefect, ddv))
                 ddq = _axpy(-moment, dbeta, _axpy(-beta, dmoment, ddq))
-            sums[0] += beta * defect / h
+            total += beta * defect
             if k > 0:
-                above = (lo * powers[0], mid * g_mid, hi * g_hi)  # s^(p + 1)
-                slope = _defects(p + 1.0, (lo, hi), above, impact)[0]
+                next_powers = (lo * powers[0], mid * g_mid, hi * g_hi)  # s^(p + 1)
+                slope = _defects(above[t], (lo, hi), next_powers, impact)[0]
                 for i in range(k):
                     kw = drive.harmonics[i] * w
                     c, s = math.cos(kw * tau_e), math.sin(kw * tau_e)
                     # x cos(k w tau) with cos(k w (tau_e + direction s)) to first order in s
-                    fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) / h
-                    fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) / h
+                    fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) * per_h
+                    fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) * per_h
         at_lo = at_hi
         if hi >= limit:
+            sums[0] += total * per_h
             return dq, dv, ddq, ddv
         if hi + h < reach:
             lo, hi, dlo, dhi = hi, hi + h, dhi, (dhi[0], dhi[1], dhi[2] + 1.0)
