@@ -389,4 +389,13 @@ class Oscillator:
             previous = reading
 
 
-__all__ = ["Block", "Oscillator", "Reading", "State", "drive"]
+def dwell_by_dwell(dwell, oscillator: Oscillator, state: State, frequencies):
+    """A steady-state strategy's walk one ``dwell(oscillator, state, w) -> (state,
+    reading, settled)`` at a time over ``frequencies``, carrying the state: ``(positions,
+    block, settled)`` for each (:mod:`hertzsweep.drivers.steady`)."""
+    for position, w in enumerate(frequencies):
+        state, reading, settled = dwell(oscillator, state, float(w))
+        yield slice(position, position + 1), Block.of(reading, state), np.array([settled])
+
+
+__all__ = ["Block", "Oscillator", "Reading", "State", "drive", "dwell_by_dwell"]

@@ -38,7 +38,7 @@ from ..kernels import tangent
 from ..kernels.integrate import Readout, new_readout
 from ..kernels.scheme import OK
 from ..kernels.tangent import CONVERGED_PERIODS, NewtonSettings, Transient
-from .oscillator import Block, Oscillator, Reading, State
+from .oscillator import Block, Oscillator, Reading, State, dwell_by_dwell
 
 NEWTON_TOLERANCE = 1e-10  # residual |P(x) - x|_inf / Q of a converged orbit: 1e4 x above the
 # round-off of one period at N = 256 (about 1e-14 of Q), far below every reading's accuracy
@@ -400,9 +400,7 @@ def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray)
     """
     period = PeriodMap(oscillator)
     if period.size != 2:  # the ball model: one dwell at a time (Newton in numpy)
-        for i, w in enumerate(frequencies):
-            state, reading, settled = shooting_dwell(oscillator, state, float(w))
-            yield slice(i, i + 1), Block.of(reading, state), np.array([settled])
+        yield from dwell_by_dwell(shooting_dwell, oscillator, state, frequencies)
         return
     n = oscillator.steps_per_period
     steps = np.array([oscillator.step(w) for w in frequencies])

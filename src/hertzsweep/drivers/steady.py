@@ -15,11 +15,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
 from ..core.config import Scene
-from .oscillator import Block, Oscillator, Reading, State
+from .oscillator import Block, Oscillator, Reading, State, dwell_by_dwell
 from .shooting import shooting_dwell, shooting_walk
 
 Dwell = Callable[[Oscillator, State, float], tuple[State, Reading, bool]]
@@ -42,12 +43,8 @@ class Strategy:
     def walk(self, oscillator: Oscillator, state: State, frequencies: Sequence[float]):
         """Dwell at each frequency in turn, carrying the state: ``(positions, block,
         settled)`` for each run of dwells."""
-        if self.fast_walk is not None:
-            yield from self.fast_walk(oscillator, state, frequencies)
-            return
-        for position, w in enumerate(frequencies):
-            state, reading, settled = self.dwell(oscillator, state, w)
-            yield slice(position, position + 1), Block.of(reading, state), np.array([settled])
+        walk = self.fast_walk or partial(dwell_by_dwell, self.dwell)
+        yield from walk(oscillator, state, frequencies)
 
 
 STRATEGIES: dict[str, Strategy] = {

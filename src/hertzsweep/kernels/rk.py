@@ -335,15 +335,16 @@ def _power(s, p):
 
 @njit(cache=CACHE, inline="always")
 def _inverses(p):
-    """``(1 / (p + 1), 1 / (p + 2))``: what :func:`_defects` divides by, formed once a
-    crossing (a division costs the divider as much as a square root)."""
-    return 1.0 / (p + 1.0), 1.0 / (p + 2.0)
+    """``(1 / (p + 1), 1 / (p + 2), 1 / (p + 3))``: what :func:`_defects` divides by for
+    ``s^p`` (the first two) and for ``s^(p + 1)`` (the last two), formed once a crossing
+    (a division costs the divider as much as a square root)."""
+    return 1.0 / (p + 1.0), 1.0 / (p + 2.0), 1.0 / (p + 3.0)
 
 
 @njit(cache=CACHE, inline="always")
 def _defects(inverses, span, powers, impact):
     """For ``g = s^p`` over one step spanning ``span = (lo, hi)`` in s, ``powers = (g(lo),
-    g(mid), g(hi))``, ``inverses`` of p (:func:`_inverses`): ``(D, Dq)``, the exact
+    g(mid), g(hi))``, ``inverses = (1 / (p + 1), 1 / (p + 2))``: ``(D, Dq)``, the exact
     integral of g minus RK4's quadrature of it (Simpson's rule) and the exact double
     integral (the displacement it adds at the step's end) minus RK4's. ``impact``: s
     grows with tau (the step starts at lo), else it falls (the step starts at hi)."""
@@ -425,13 +426,6 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
     terms3 = _singular_terms(law, crossing)
     inverses = (_inverses(terms3[0][1]), _inverses(terms3[1][1]), _inverses(terms3[2][1]))
     k = fourier.shape[0]
-    above = inverses  # of s^(p + 1), for the Fourier integrals' first-order phase term
-    if k > 0:
-        above = (
-            _inverses(terms3[0][1] + 1.0),
-            _inverses(terms3[1][1] + 1.0),
-            _inverses(terms3[2][1] + 1.0),
-        )
     per_h = 1.0 / h
     total = 0.0  # the defect of the integral of x, added to sums[0] at the end
     lo, hi = 0.0, first
@@ -448,7 +442,8 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
             g_mid, g_hi = _power(mid, p), _power(hi, p)
             at_hi = _set(at_hi, t, g_hi)
             powers = (at_lo[t], g_mid, g_hi)
-            defect, shift = _defects(inverses[t], (lo, hi), powers, impact)
+            inverse = inverses[t]
+            defect, shift = _defects((inverse[0], inverse[1]), (lo, hi), powers, impact)
             arm = hi if impact else -lo  # tau_b - tau_e
             moment = shift - defect * arm
             dv -= beta * defect
@@ -464,7 +459,7 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
             total += beta * defect
             if k > 0:
                 next_powers = (lo * powers[0], mid * g_mid, hi * g_hi)  # s^(p + 1)
-                slope = _defects(above[t], (lo, hi), next_powers, impact)[0]
+                slope = _defects((inverse[1], inverse[2]), (lo, hi), next_powers, impact)[0]
                 for i in range(k):
                     kw = drive.harmonics[i] * w
                     c, s = math.cos(kw * tau_e), math.sin(kw * tau_e)
