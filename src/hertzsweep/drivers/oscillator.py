@@ -9,6 +9,7 @@ a :class:`Reading` (lock-in harmonics, force extremes, contact loss, periodicity
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from ..kernels import ball, scheme
 from ..kernels.integrate import COUNT_FIELDS, SUM_FIELDS, Readout
 from ..kernels.laws import make_law
 from ..kernels.methods import MODELS, Method
-from .readings import BALL_FIELDS, READING_FIELDS, Readings
+from .readings import BALL_FIELDS, SCALAR_FIELDS
 
 PERIODIC_TOLERANCE_FLOOR = 1e-3  # relative state mismatch after one period below which
 # (or below 10x the scene tolerance) the steady state counts as T-periodic: well above
@@ -93,7 +94,7 @@ class Reading:
     extra: dict[str, float] = field(default_factory=dict)
 
 
-BLOCK_ARRAYS = READING_FIELDS + ("periodic", "coefficients")  # a Block's arrays over t
+BLOCK_ARRAYS = SCALAR_FIELDS + ("periodic", "coefficients")  # a Block's own arrays over t
 
 
 assert SUM_FIELDS == ("total", "force_max", "force_min", "q_prev_last", "q_last", "q_prev", "q")
@@ -101,13 +102,21 @@ assert COUNT_FIELDS == ("loss", "longest", "lead", "trail")  # unpacked so by Bl
 
 
 @dataclass
-class Block(Readings):
+class Block:
     """What one measured block read, for T trajectories (or T dwells) at once: the arrays
     of :class:`Reading` with a leading axis t. The one place readings are computed from
     the kernels' sums, combined and compared, for one trajectory and many alike.
 
+    The harmonics' ``amplitude`` and ``phase`` are formed from ``coefficients`` when first
+    asked for: a dwell reads two blocks, compares their sums and combines them, and only
+    the combination's harmonics are ever read (their arctangents cost as much as the rest
+    of a block's reading).
+
     Attributes
     ----------
+    mean_force, force_max, force_min, contact_loss_fraction, flight_tau : float[T]
+        As :class:`Reading` (:data:`~.readings.SCALAR_FIELDS`).
+    periodic : bool[T]
     coefficients : float[T, K, 2]
         The raw Fourier sums (``cos``, ``sin``), for combining blocks and comparing them.
     samples : int
@@ -119,35 +128,50 @@ class Block(Readings):
         The ball model's own readings (:data:`~.readings.BALL_FIELDS`); empty otherwise.
     """
 
+    mean_force: np.ndarray
+    force_max: np.ndarray
+    force_min: np.ndarray
+    contact_loss_fraction: np.ndarray
+    flight_tau: np.ndarray
     periodic: np.ndarray
     coefficients: np.ndarray
     samples: int
     end: np.ndarray
     extra: dict[str, np.ndarray] = field(default_factory=dict)
 
+    @cached_property
+    def _harmonics(self) -> tuple[np.ndarray, np.ndarray]:
+        return amplitude_phase(self.coefficients, self.samples)
+
+    @property
+    def amplitude(self) -> np.ndarray:
+        """float[T, K]: the lock-in's amplitudes (:data:`~.readings.HARMONIC_FIELDS`)."""
+        return self._harmonics[0]
+
+    @property
+    def phase(self) -> np.ndarray:
+        """float[T, K]: the lock-in's phases [degree]."""
+        return self._harmonics[1]
+
     @classmethod
     def read(cls, buffers: Readout, samples: int, h: np.ndarray, tolerance: float) -> Block:
         """The block of the kernels' ``buffers`` (``samples`` steps of step ``h[t]``);
         ``periodic`` where the state after the last period returns to its start within
         ``tolerance`` (relative to the response's scale)."""
-        total, fmax, fmin, q_prev_last, q_last, q_prev, q = buffers.sums  # SUM_FIELDS
+        total, fmax, fmin = buffers.sums[:3]  # SUM_FIELDS
+        last, now = buffers.sums[3:5], buffers.sums[5:7]  # (q_prev, q) a period apart
         loss, longest, lead, trail = buffers.counts  # COUNT_FIELDS
         flight_steps = np.where(lead == samples, samples, np.maximum(longest, lead + trail))
         coefficients = buffers.coefficients.transpose(2, 0, 1).copy()
-        amplitude, phase = amplitude_phase(coefficients, samples)
-        scale = np.maximum(
-            np.maximum(np.abs(q_last), np.abs(q_prev_last)), np.maximum(0.5 * (fmax - fmin), 1e-300)
-        )
-        mismatch = np.maximum(np.abs(q - q_last), np.abs(q_prev - q_prev_last))
-        end = np.column_stack([q_prev, q])
+        scale = np.maximum(np.abs(last).max(axis=0), np.maximum(0.5 * (fmax - fmin), 1e-300))
+        mismatch = np.abs(now - last).max(axis=0)
+        end = now.T.copy()
         extra: dict[str, np.ndarray] = {}
         if buffers.extra.shape[0]:  # the ball model: its state's second member too
             extra, q2_mismatch, q2_end = _ball_readings(buffers.extra, samples, h)
             mismatch = np.maximum(mismatch, q2_mismatch)
             end = np.stack([end, q2_end], axis=-1)
         return cls(
-            amplitude=amplitude,
-            phase=phase,
             mean_force=1.0 + total / samples,
             force_max=fmax.copy(),
             force_min=fmin.copy(),
@@ -191,7 +215,6 @@ class Block(Readings):
         combine, ``periodic`` is the later block's)."""
         samples = self.samples + later.samples
         coefficients = self.coefficients + later.coefficients
-        amplitude, phase = amplitude_phase(coefficients, samples)
 
         def weighted(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             return (a * self.samples + b * later.samples) / samples
@@ -202,8 +225,6 @@ class Block(Readings):
         }
 
         return Block(
-            amplitude=amplitude,
-            phase=phase,
             mean_force=weighted(self.mean_force, later.mean_force),
             force_max=np.maximum(self.force_max, later.force_max),
             force_min=np.minimum(self.force_min, later.force_min),
@@ -220,12 +241,18 @@ class Block(Readings):
         """Where the two blocks' normalised Fourier sums (the mean and every harmonic)
         differ by at most ``tolerance`` of the later one's norm: bool[T]."""
         va, vb = self._vector(), later._vector()
-        scale = np.maximum(np.linalg.norm(vb, axis=1), 1e-300)
-        return np.linalg.norm(va - vb, axis=1) <= tolerance * scale
+        scale = np.maximum(_norms(vb), 1e-300)
+        return _norms(va - vb) <= tolerance * scale
 
     def _vector(self) -> np.ndarray:
         flat = self.coefficients.reshape(self.coefficients.shape[0], -1) / self.samples
-        return np.column_stack([self.mean_force - 1.0, flat])
+        return np.concatenate(((self.mean_force - 1.0)[:, None], flat), axis=1)
+
+
+def _norms(rows: np.ndarray) -> np.ndarray:
+    """The Euclidean norm of each row: ``numpy.linalg.norm(rows, axis=1)``'s arithmetic
+    without its dispatch (a dwell compares two blocks of one row)."""
+    return np.sqrt(np.add.reduce(rows * rows, axis=1))
 
 
 def _flight_steps(tallied: np.ndarray, samples: int) -> np.ndarray:
