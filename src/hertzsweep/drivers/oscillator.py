@@ -9,7 +9,6 @@ a :class:`Reading` (lock-in harmonics, force extremes, contact loss, periodicity
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import numpy as np
 
@@ -126,6 +125,9 @@ class Block:
         when two are combined), from which one more period can be read.
     extra : dict of float[T]
         The ball model's own readings (:data:`~.readings.BALL_FIELDS`); empty otherwise.
+    harmonics : (float[T, K], float[T, K]) or None
+        ``(amplitude, phase)`` once formed: on first use, or given by :meth:`of` (its
+        reading has them).
     """
 
     mean_force: np.ndarray
@@ -138,20 +140,22 @@ class Block:
     samples: int
     end: np.ndarray
     extra: dict[str, np.ndarray] = field(default_factory=dict)
-
-    @cached_property
-    def _harmonics(self) -> tuple[np.ndarray, np.ndarray]:
-        return amplitude_phase(self.coefficients, self.samples)
+    harmonics: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def amplitude(self) -> np.ndarray:
         """float[T, K]: the lock-in's amplitudes (:data:`~.readings.HARMONIC_FIELDS`)."""
-        return self._harmonics[0]
+        return self._harmonics()[0]
 
     @property
     def phase(self) -> np.ndarray:
         """float[T, K]: the lock-in's phases [degree]."""
-        return self._harmonics[1]
+        return self._harmonics()[1]
+
+    def _harmonics(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.harmonics is None:
+            self.harmonics = amplitude_phase(self.coefficients, self.samples)
+        return self.harmonics
 
     @classmethod
     def read(cls, buffers: Readout, samples: int, h: np.ndarray, tolerance: float) -> Block:
@@ -192,6 +196,7 @@ class Block:
             samples=reading.samples,
             end=np.array([[state.q_prev, state.q]]),
             extra={name: np.array([value]) for name, value in reading.extra.items()},
+            harmonics=(np.array([reading.amplitude]), np.array([reading.phase])),
         )
 
     def at(self, t: int) -> Reading:
