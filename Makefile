@@ -15,7 +15,7 @@ SMOKE_SCENE     := configs/smoke.toml
 SMOKE_REFERENCE := tests/data/smoke-reference.nc
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo test smoke smoke-update lint bench fig15 paper clean
+.PHONY: help install demo test smoke smoke-update lint docs bench fig15 paper clean
 
 help:  ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-13s %s\n", $$1, $$2}'
@@ -25,11 +25,11 @@ $(STAMP): pyproject.toml
 	@$(PYTHON) $(PYTHON_CHECK) || { echo "make: $(PYTHON) is not Python 3.11 or newer" >&2; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[test]'
+	$(BIN)/pip install --quiet -e '.[test,docs]'
 	$(BIN)/python -m hertzsweep.drivers.warm
 	touch $(STAMP)
 
-install: $(STAMP)  ## create .venv and install hertzsweep with the test extras
+install: $(STAMP)  ## create .venv and install hertzsweep with the test and docs extras
 
 demo: $(STAMP)  ## run the default scene: results/demo.nc and a table on stdout
 	@mkdir -p results
@@ -47,8 +47,13 @@ smoke-update: $(STAMP)  ## rewrite the smoke reference (only for an intended cha
 	$(BIN)/hertzsweep sweep $(SMOKE_SCENE) -o $(SMOKE_REFERENCE) --quiet
 
 lint: $(STAMP)  ## ruff check and format check
-	$(BIN)/ruff check src tests
-	$(BIN)/ruff format --check src tests
+	$(BIN)/ruff check src tests docs/hooks
+	$(BIN)/ruff format --check src tests docs/hooks
+
+# NO_MKDOCS_2_WARNING: silences mkdocs-material's banner about its own end of life (not a
+# warning about the manual: any of those fails the build, --strict)
+docs: $(STAMP)  ## build the manual into site/ (offline, --strict)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 bench: $(STAMP)  ## the project's speed figures
 	$(BIN)/hertzsweep bench
@@ -61,5 +66,5 @@ fig15: $(STAMP)  ## the paper's Figure 15 study: results/fig15.nc and results/fi
 paper: $(STAMP)  ## the paper's figures and validation table in results/paper/
 	$(BIN)/hertzsweep paper configs/paper results/paper
 
-clean:  ## remove results and caches (keeps .venv)
-	rm -rf results .pytest_cache build src/*.egg-info
+clean:  ## remove results, the built manual and caches (keeps .venv)
+	rm -rf results site .pytest_cache build src/*.egg-info

@@ -1098,7 +1098,7 @@ RIG_CONSTANTS = (  # global attributes every dataset carries
 
 def nonfinite(path: Path) -> list[str]:
     """The float variables and rig-constant attributes of a dataset holding NaN or
-    infinity where the README does not say they may (the ball's mode of a single
+    infinity where the manual does not say they may (the ball's mode of a single
     sphere-plane is undefined: NaN)."""
     import netCDF4
     import numpy as np

@@ -156,7 +156,7 @@ def test_linear_response_is_the_schemes_limit():
 
 def test_walk_finds_the_continuations_folds():
     # sigma = 1 %, viscous zeta = 0.45 %: the down sweep falls at the lower fold, the up
-    # sweep jumps at the upper one (README: 0.97177, 0.98628); the walk stops within
+    # sweep jumps at the upper one (measured: 0.97177, 0.98628); the walk stops within
     # 1e-6 (JUMP_TOLERANCE) of the fold, continuation locates it to far better
     scene = make_scene(
         excitation={"sigma": [0.01]}, sweep={"start": 0.96, "stop": 0.995, "step": 0.005}

@@ -1,8 +1,13 @@
 """The shape of the package, read from its source (an ast walk, nothing imported).
 
-- Layers: core -> kernels -> drivers -> output -> cli; a module imports only from its own
-  layer or those before it (``hertzsweep.errors`` and the package root, which holds the
-  version, from anywhere). Imports inside functions count.
+- Layers: core -> kernels -> drivers -> output -> api -> cli; a module imports only from
+  its own layer or those before it (``hertzsweep.errors`` and the package root, which holds
+  the version, from anywhere). Imports inside functions count, except the package root's:
+  its module-level ``__getattr__`` hands out the public names of ``hertzsweep.api`` and
+  ``hertzsweep.errors`` on first use (PEP 562), which is no dependency of the layers.
+- The command line reaches the engine only through the API: a ``cli`` module imports
+  ``hertzsweep.api`` (and its modules), ``hertzsweep.errors``, the package root and
+  ``cli`` modules, nothing else of the package.
 - No import cycles between modules.
 - At most :data:`MAX_FMT_SKIP` ``# fmt: skip`` markers.
 - At most :data:`MAX_LONG_FUNCTIONS` functions longer than :data:`LONG_FUNCTION` code lines.
@@ -20,7 +25,8 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "hertzsweep"
-LAYERS = ("core", "kernels", "drivers", "output", "cli")  # in order: each may use those before
+LAYERS = ("core", "kernels", "drivers", "output", "api", "cli")  # each may use those before
+CLI_MAY_IMPORT = ("api", "cli")  # the layers a cli module may import (besides ANYWHERE)
 ANYWHERE = {PACKAGE, f"{PACKAGE}.errors"}  # the package root (version) and the exceptions
 ENTRY = f"{PACKAGE}.__main__"  # ``python -m hertzsweep``: above every layer
 MAX_FMT_SKIP = 5  # hand-formatted lines: a long call wants keywords or a bundle instead
@@ -60,7 +66,8 @@ def imported_modules(name: str, tree: ast.Module) -> Iterator[tuple[str, int]]:
     (module level or inside functions); ``from X import y`` names ``X.y`` when that is a
     module of the package, else ``X``."""
     package = name if is_package(name) else name.rpartition(".")[0]
-    for node in ast.walk(tree):
+    nodes = tree.body if name == PACKAGE else ast.walk(tree)  # the root: module level only
+    for node in nodes:
         if isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.name.split(".")[0] == PACKAGE:
@@ -111,6 +118,25 @@ def test_layers_import_only_downwards():
             if own is None or other > own:
                 wrong.append(f"{MODULES[name].relative_to(SRC)}:{line}: {name} imports {target}")
     assert not wrong, "layer rule broken:\n" + "\n".join(wrong)
+
+
+def test_the_command_line_reaches_the_engine_only_through_the_api():
+    wrong = []
+    for name, imports in IMPORTS.items():
+        if layer(name) != LAYERS.index("cli"):
+            continue
+        for target, line in imports:
+            other = layer(target)
+            if other is not None and LAYERS[other] not in CLI_MAY_IMPORT:
+                wrong.append(f"{MODULES[name].relative_to(SRC)}:{line}: {name} imports {target}")
+    assert not wrong, "the command line bypasses the API:\n" + "\n".join(wrong)
+
+
+def test_the_api_check_sees_a_bypass():
+    tree = ast.parse("def f():\n    from ..drivers.sweep import run_sweep\n")
+    found = list(imported_modules(f"{PACKAGE}.cli.sweep", tree))
+    assert found == [(f"{PACKAGE}.drivers.sweep", 2)]
+    assert LAYERS[layer(found[0][0])] not in CLI_MAY_IMPORT
 
 
 def test_the_layer_check_sees_lazy_imports():

@@ -60,23 +60,11 @@ def hidden(folder: Path) -> list[str]:
 def no_computing(monkeypatch):
     """Every command's driver replaced by one that fails the test when it is called: a
     refused output must end the command before anything is computed."""
-    from hertzsweep.cli import accuracy, branch, fit, importing, trace
-    from hertzsweep.cli import sweep as sweep_module
     from hertzsweep.output.kinds import KINDS
 
     def computed(*args, **kwargs):
         raise AssertionError("computed although the output was refused")
 
-    constants = [
-        (sweep_module, "SWEEP"),
-        (trace, "TRACE"),
-        (branch, "BRANCH"),
-        (accuracy, "ACCURACY"),
-        (fit, "FIT"),
-        (importing, "MEASURED"),
-    ]
-    for module, name in constants:
-        monkeypatch.setattr(module, name, dataclasses.replace(getattr(module, name), run=computed))
     for name, kind in list(KINDS.items()):
         monkeypatch.setitem(KINDS, name, dataclasses.replace(kind, run=computed))
 
@@ -238,7 +226,7 @@ def test_every_writing_command_checks_its_output(tmp_path, capsys, no_computing)
 def test_plot_checks_its_figure_path_before_drawing(tmp_path, capsys, monkeypatch):
     # plot's -o is the same checked option: a FIFO or a link with a figure's name, a
     # folder, an empty path are refused before the dataset is read or drawn
-    import hertzsweep.cli.plot as plot_command
+    import hertzsweep.output.kinds as plot_command
 
     def no_drawing(*args, **kwargs):
         raise AssertionError("drew a figure for an output it cannot write")
@@ -513,15 +501,15 @@ def test_stopped_study_says_the_output_is_an_earlier_runs(tmp_path, capsys, monk
 def interrupted_sweep(monkeypatch):
     """The sweep driver runs, then reports an interrupt with its whole result as the
     partial one (as SIGINT after the last dwell would)."""
-    from hertzsweep.cli import sweep as sweep_module
     from hertzsweep.errors import Interrupted
+    from hertzsweep.output.kinds import KINDS
 
-    real = sweep_module.SWEEP
+    real = KINDS["sweep"]
 
     def run_then_interrupt(scene, progress=None):
         raise Interrupted(real.run(scene, progress), signal.SIGINT)
 
-    monkeypatch.setattr(sweep_module, "SWEEP", dataclasses.replace(real, run=run_then_interrupt))
+    monkeypatch.setitem(KINDS, "sweep", dataclasses.replace(real, run=run_then_interrupt))
 
 
 def test_partial_output_is_written_atomically(tmp_path, capsys, interrupted_sweep):

@@ -161,7 +161,7 @@ def test_manifest_of_the_paper():
 
 def test_grid_note_on_figure_15():
     """Figure 15 of `make paper` is swept on a coarser grid than `make fig15` and the
-    README's table: validation.md says so, with both steps."""
+    manual's table: validation.md says so, with both steps."""
     runs = paper.read_manifest(PAPER_DIR)
     (fig15,) = [run for run in runs if run.name == "fig15"]
     assert "sweep.step=0.005" in fig15.overrides
@@ -169,7 +169,7 @@ def test_grid_note_on_figure_15():
     (note,) = paper.grid_notes(runs, {"fig15": coarse})
     assert note.startswith("`fig15.png` (run `fig15`) sweeps with a frequency step of 0.005")
     assert "not the 0.0025 of its study file `fig15.toml`" in note
-    assert "README's Figure 15 table" in note
+    assert "manual's Figure 15 table" in note
     assert paper.grid_notes(runs, {"fig15": xr.Dataset(attrs={"sweep_step": 0.0025})}) == []
     result = paper.PaperResult(grid_notes=[note])
     assert f"- {note}" in paper.validation_report(result, quick=False)

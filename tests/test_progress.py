@@ -1,4 +1,4 @@
-"""The progress bar (``hertzsweep.cli.progress``): its clock runs between updates, so a
+"""The progress bar (``hertzsweep.api.progress``): its clock runs between updates, so a
 study whose cases take long does not sit at 0 % with a frozen clock; it counts the units
 done of the total and is off without a terminal."""
 
@@ -6,7 +6,7 @@ import io
 import sys
 import time
 
-from hertzsweep.cli.progress import progress_bar
+from hertzsweep.api.progress import progress_bar
 
 
 class Terminal(io.StringIO):

@@ -6,14 +6,9 @@ import shlex
 
 import click
 
-from ..core.model import check_stability
-from ..drivers.accuracy import build_ladder, parse_methods, parse_settle_list, parse_steps
-from ..output.kinds import KINDS
 from . import options
 from .group import cli
-from .progress import progress_bar
 
-ACCURACY = KINDS["accuracy"]
 TARGET_HELP = (
     "Recommend the fastest setting (wall time) whose H1 error (relative to the largest H1) "
     "is at most TOL."
@@ -68,17 +63,15 @@ def accuracy_command(
     extrapolation) in H1, H2, force extremes and jump frequencies, prints the table, the
     observed order and the Pareto front of wall time against error.
     """
+    from ..api.runs import accuracy_ladder, check_accuracy, run_accuracy
+
     scene = options.read_scene(scene_file, overrides)
     options.claim_output(output, scene.inputs)
-    check_stability(scene)
-    steps = parse_steps(steps_text) if steps_text is not None else None
-    settle = parse_settle_list(settle_text) if settle_text is not None else None
-    methods = parse_methods(methods_text) if methods_text is not None else None
-    ladder = build_ladder(scene, steps, settle, quick, methods=methods)
-    with progress_bar(len(ladder.settings), "accuracy", not quiet, unit="setting") as progress:
-        report = ACCURACY.run(scene, ladder, target, progress)
-    report.scene_arguments = shlex.join([scene_file, *(f"--set={item}" for item in overrides)])
-    options.write_result(ACCURACY, report, scene, output)
+    check_accuracy(scene)
+    ladder = accuracy_ladder(scene, steps_text, settle_text, methods_text, quick)
+    arguments = shlex.join([scene_file, *(f"--set={item}" for item in overrides)])
+    run = run_accuracy(scene, ladder, target, options.progress(quiet), scene_arguments=arguments)
+    options.write_run(run, output)
 
 
 __all__ = ["accuracy_command"]

@@ -16,9 +16,9 @@ from .group import cli
 @click.option("--quick", is_flag=True, help="Smaller runs (a smoke check, noisier figures).")
 def bench_command(as_json: bool, quick: bool) -> None:
     """Speed figures: ns per step, a 121-point sweep, time per dwell at equal accuracy."""
-    from ..drivers.bench import run_all
+    from ..api.runs import bench
 
-    figures = run_all(quick=quick)
+    figures = bench(quick)
     if as_json:
         click.echo(json.dumps(figures, indent=2))
         return

@@ -2,12 +2,8 @@
 
 from __future__ import annotations
 
-from ..output.kinds import KINDS
 from . import options
 from .group import cli
-from .progress import progress_bar
-
-BRANCH = KINDS["branch"]
 
 
 @cli.command("branch")
@@ -19,13 +15,11 @@ def branch_command(scene_file: str, output: str, overrides: tuple[str, ...], qui
     """Periodic orbits by shooting with arclength continuation across the sweep's span,
     for every sigma: stable and unstable branches, Floquet multipliers, located folds,
     period doublings and Neimark-Sacker points; prints the bifurcations."""
-    from ..drivers.continuation import progress_total
+    from ..api.runs import run_branch
 
     scene = options.read_scene(scene_file, overrides)
     options.claim_output(output, scene.inputs)
-    with progress_bar(progress_total(scene), "branch", not quiet, unit="%") as progress:
-        result = BRANCH.run(scene, progress)
-    options.write_result(BRANCH, result, scene, output)
+    options.write_run(run_branch(scene, options.progress(quiet)), output)
 
 
 __all__ = ["branch_command"]

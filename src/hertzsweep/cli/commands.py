@@ -8,10 +8,7 @@ import math
 
 import click
 
-from ..core.checks import check_rig, format_size, load_checked_scene
-from ..core.config import read_rig
-from ..core.model import STABILITY, stability_limit
-from ..core.rig import UNITS
+from ..api.choices import RIG_UNITS, STABILITY, format_size
 from . import options
 from .group import cli
 
@@ -36,41 +33,27 @@ MEASURED_LABELS = {  # the labels that change when the rig gives a measured f0
 HERTZ_ONLY = ("hertz_contact_stiffness", "hertz_natural_frequency")  # shown beside a measured f0
 
 
-def _scene_or_none(path: str):
-    """The scene of a scene file, checked as a run would check it, or None for a bare
-    rig file."""
-    from ..core.config import read_toml
-
-    raw = read_toml(path)
-    return None if set(raw) == {"rig"} else options.read_scene(path)
-
-
 @cli.command("rig")
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
 def rig_command(file: str, as_json: bool) -> None:
     """Derived constants of a rig, or of a scene's rig (eq. 2, 3, 12, 15)."""
-    rig, source = read_rig(file)
-    constants = check_rig(rig, source).as_dict()
-    scene = _scene_or_none(file)
-    if scene is not None:
-        limit = stability_limit(scene)
-        constants["stability_limit_steps_per_period"] = limit
-        constants["stability_margin"] = scene.solver.steps_per_period / limit
+    from ..api.runs import rig_report
+
+    constants, measured = rig_report(file)
     if as_json:
         defined = {
             k: None if isinstance(v, float) and math.isnan(v) else v for k, v in constants.items()
         }
         click.echo(json.dumps(defined, indent=2))
         return
-    measured = rig.natural_frequency is not None
     for key, value in constants.items():
         if key in HERTZ_ONLY and not measured:
             continue  # the same values as k and f0
         label = (MEASURED_LABELS if measured else {}).get(key) or RIG_LABELS.get(
             key, key.replace("_", " ")
         )
-        unit = UNITS.get(key, "")
+        unit = RIG_UNITS.get(key, "")
         text = "n/a (single sphere-plane)" if math.isnan(value) else f"{value:.6g} {unit}"
         click.echo(f"{label:44s} {text}")
 
@@ -80,7 +63,9 @@ def rig_command(file: str, as_json: bool) -> None:
 @options.set_option
 def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
     """Check a scene: exit 0, or one line naming file, key and reason, exit 2."""
-    scene, figures = load_checked_scene(scene_file, overrides)
+    from ..api.runs import validate
+
+    scene, figures = validate(scene_file, options.parse_overrides(overrides))
     steps = scene.solver.steps_per_period
     limit = figures.stability_limit
     mode = ", omega_max of the ball's own mode" if scene.model.kind == "ball" else ""

@@ -12,7 +12,6 @@ import click
 
 from ..errors import Failed
 from .group import cli
-from .options import read_dataset
 
 
 @cli.command("compare")
@@ -56,14 +55,11 @@ def compare_command(
     error. Amplitudes are relative, phases absolute in degrees with wrap-around, jump
     frequencies within one grid step, flags and strings exact; configuration differences
     are listed."""
-    from ..output.compare import compare, parse_variable_tolerance
+    from ..api import compare
+    from ..api.runs import parse_variable_tolerances
 
-    overrides = dict(parse_variable_tolerance(text) for text in var_tolerances)
-    run = read_dataset(run_file)
-    reference = read_dataset(reference_file)
-    report = compare(
-        run, reference, rtol=rtol, atol=atol, variables=overrides, names=(run_file, reference_file)
-    )
-    click.echo(report.to_json() if as_json else report.text())
-    if not report.equal:  # exit status 1
+    variables = parse_variable_tolerances(var_tolerances)
+    result = compare(run_file, reference_file, rtol=rtol, atol=atol, variables=variables)
+    click.echo(result.report.to_json() if as_json else result.text)
+    if not result.ok:  # exit status 1
         raise Failed(f"{run_file} is outside tolerance of {reference_file}")

@@ -7,11 +7,8 @@ from __future__ import annotations
 
 import click
 
-from ..output.kinds import KINDS
 from . import options
 from .group import cli
-
-MEASURED = KINDS["measured"]
 
 
 @cli.command("import")
@@ -22,9 +19,10 @@ def import_command(csv_file: str, output: str) -> None:
     jump frequencies (direction,sigma,jump_frequency) into a dataset of kind measured:
     the sweep layout, NaN where not measured. A bad file ends with one line naming the
     file, the line and the column (exit 2)."""
+    from ..api.runs import run_import
+
     options.claim_output(output, (csv_file,))
-    data = MEASURED.run(csv_file)
-    options.write_result(MEASURED, data, None, output)
+    options.write_run(run_import(csv_file), output)
 
 
 __all__ = ["import_command"]

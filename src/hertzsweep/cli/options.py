@@ -17,23 +17,32 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from ..core.checks import load_checked_scene
-from ..core.config import Scene
-from ..errors import HertzsweepError
-from ..output import paths
+from ..api import files
+from ..api.choices import EXAMPLES
 
 if TYPE_CHECKING:
     import xarray as xr
 
-    from ..output.kinds import Kind
+    from ..api import Scene
+    from ..api.runs import Run
 
 scene_argument = click.argument("scene_file", metavar="SCENE", type=click.Path(dir_okay=False))
+scene_argument_or_example = click.argument(
+    "scene_file", metavar="[SCENE]", required=False, type=click.Path(dir_okay=False)
+)
+example_option = click.option(
+    "--example",
+    type=click.Choice(list(EXAMPLES)),
+    default=None,
+    help="Run a scene shipped with hertzsweep instead of SCENE (default: the paper's "
+    "Figures 4-5; smoke: the same on a reduced grid).",
+)
 
 
 def _checked_output(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     """The ``-o`` callback: what needs no scene is refused before anything is read."""
     if value is not None:
-        paths.check_output(value)
+        files.check_output(value)
     return value
 
 
@@ -64,44 +73,60 @@ quiet_option = click.option("-q", "--quiet", is_flag=True, help="No progress bar
 
 def read_scene(scene_file: str, overrides: tuple[str, ...] = ()) -> Scene:
     """The scene of a file, with ``--set`` overrides applied, after every check a run
-    makes (:func:`hertzsweep.core.checks.preflight`)."""
-    return load_checked_scene(scene_file, overrides)[0]
+    makes (:func:`hertzsweep.api.load_scene`)."""
+    from ..api import load_scene
+
+    return load_scene(scene_file, parse_overrides(overrides))
 
 
-def read_dataset(path: str | os.PathLike) -> xr.Dataset:
-    """A netCDF file, fully read into memory; one clear error when it is not one.
+def read_scene_or_example(
+    scene_file: str | None, example: str | None, overrides: tuple[str, ...] = ()
+) -> Scene:
+    """The scene of SCENE or of ``--example NAME`` (exactly one of them).
 
     Raises
     ------
-    FileNotFoundError
-        No such file.
-    HertzsweepError
-        The file is not netCDF.
+    click.UsageError
+        Both or neither given.
     """
-    from ..output.dataset import open_dataset
+    if (scene_file is None) == (example is None):
+        raise click.UsageError("give a scene file SCENE or --example NAME (one of them)")
+    if example is None:
+        return read_scene(scene_file, overrides)
+    from ..api import example_scene
 
-    return _read(open_dataset, path)
+    return example_scene(example, parse_overrides(overrides))
+
+
+def history() -> str:
+    """A dataset's ``history``: this command line (:func:`hertzsweep.api.files.history`)."""
+    return files.history()
+
+
+def progress(quiet: bool) -> bool | str:
+    """A command's progress bar: on stderr when it is a terminal, off with ``--quiet``
+    (:data:`hertzsweep.api.runs.TERMINAL`)."""
+    return False if quiet else "terminal"
+
+
+def parse_overrides(overrides: tuple[str, ...]) -> dict[str, Any]:
+    """``--set`` texts as the API's ``{key: value}`` overrides (the last of a key wins,
+    as when the texts are applied in order)."""
+    from ..api.runs import parse_overrides
+
+    return parse_overrides(overrides)
+
+
+def read_dataset(path: str | os.PathLike) -> xr.Dataset:
+    """A netCDF file, fully read into memory (:func:`hertzsweep.api.files.read_dataset`)."""
+    return files.read_dataset(path)
 
 
 def read_attributes(path: str | os.PathLike) -> SimpleNamespace:
-    """The global attributes of a netCDF file as ``.attrs``, its variables left unread
-    (:func:`hertzsweep.output.dataset.read_attributes`: a command that needs only a
-    dataset's record of how it was made loads neither its data nor xarray); the same
-    errors as :func:`read_dataset`."""
-    from ..output.dataset import read_attributes as attributes
-
-    return SimpleNamespace(attrs=_read(attributes, path))
-
-
-def _read(reader: Callable[[Any], Any], path: str | os.PathLike) -> Any:
-    """``reader(path)``, a file that is not netCDF as one HertzsweepError naming it."""
-    try:
-        return reader(path)
-    except FileNotFoundError:
-        raise
-    except (OSError, ValueError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise HertzsweepError(f"{path}: cannot read it as netCDF ({reason})") from None
+    """The global attributes of a netCDF file as ``.attrs``, its variables left unread (a
+    command that needs only a dataset's record of how it was made loads neither its data
+    nor xarray); the same errors as :func:`read_dataset`."""
+    return SimpleNamespace(attrs=files.read_attributes(path))
 
 
 def claim_output(
@@ -118,13 +143,13 @@ def claim_output(
         The output is an input, or another run holds its lock, or its lock cannot be
         created.
     """
-    paths.check_not_input(output, inputs)
-    lock = paths.lock_output(output)
+    files.check_not_input(output, inputs)
+    lock = files.lock_output(output)
     click.get_current_context().call_on_close(lock.release)
     place = os.path.dirname(output) or "."
-    removed = paths.remove_stale_temporaries(place, os.path.basename(output))
+    removed = files.remove_stale_temporaries(place, os.path.basename(output))
     for folder in folders:
-        removed += paths.remove_stale_temporaries(folder)
+        removed += files.remove_stale_temporaries(folder)
     if removed:
         click.echo(
             f"hertzsweep: removed {len(removed)} temporary file(s) of {output} left by a "
@@ -133,60 +158,29 @@ def claim_output(
         )
 
 
-def write_result(kind: Kind, result: Any, scene: Scene, output: str) -> xr.Dataset:
-    """Build a command's dataset from its driver's result, write it atomically, print
-    the kind's summary and the file written."""
-    from ..output.dataset import write_atomic
-
-    ds = kind.build(result, scene)
-    write_atomic(ds, output)
-    _report(kind, result, ds, output, scene)
-    return ds
+def write_run(run: Run, output: str) -> None:
+    """Write a run's dataset atomically, print the kind's summary and the file written."""
+    files.write(run.frame, output)
+    report(run, output)
 
 
-def write_streamed(kind: Kind, scene: Scene, output: str, run: Callable[[Any], Any]) -> None:
-    """Run a driver whose record streams into the output as it is integrated
-    (``run(sink)`` with a :class:`hertzsweep.output.dataset.RecordStream` on the output's
-    temporary), finish the file with the rest of the dataset, print the summary."""
-    from ..core.rig import derive
-    from ..output.dataset import RecordStream
-
-    omega = derive(scene.rig).natural_circular_frequency
-    with paths.atomic_path(output) as tmp, RecordStream(tmp, omega) as stream:
-        result = run(stream)
-        ds = kind.build(result, scene)
-        stream.finish(ds)
-    _report(kind, result, ds, output, scene)
+def write_streamed(output: str, scene: Scene, make: Callable[[Any], Run]) -> None:
+    """Run a trace whose record streams into the output as it is integrated
+    (``make(sink)`` with a record stream on the output's temporary), finish the file with
+    the rest of the dataset, print the summary."""
+    with files.atomic_path(output) as tmp, files.record_stream(tmp, scene) as stream:
+        run = make(stream)
+        stream.finish(run.frame)
+    report(run, output)
 
 
-def _report(kind: Kind, result: Any, ds: Any, output: str, scene: Scene) -> None:
+def report(run: Run, output: str) -> None:
     """The kind's summary of a written output, and the file written; on stderr, once, a
     warning where the response reaches the ball's own mode (:mod:`hertzsweep.core.ballmode`)."""
-    text = kind.summary(result, ds)
+    text = run.summary()
     if text:
         click.echo(text)
     click.echo(f"wrote {output}")
-    warning = ball_mode_warning(result, scene)
+    warning = run.warning()
     if warning:
         click.echo(f"hertzsweep: warning: {warning}", err=True)
-
-
-def ball_mode_warning(result: Any, scene: Scene) -> str:
-    """The warning of a sweep's or a trace's largest ball-mode figure above the threshold
-    (its sigma, w and, for a sweep, direction), or "" where none is."""
-    import numpy as np
-
-    from ..core.ballmode import THRESHOLD, warning_text
-    from ..core.rig import derive
-
-    errors = getattr(result, "ball_mode_error", None)
-    if errors is None or not np.any(errors > THRESHOLD):
-        return ""
-    at = np.unravel_index(np.nanargmax(errors), errors.shape)
-    if len(at) == 3:  # a sweep: (direction, sigma, frequency_ratio)
-        d, s, p = at
-        w, after = result.frequency_ratio[p], f" ({result.directions[d]} sweep)"
-    else:  # a trace: (sigma,) at its one frequency ratio
-        (s,), w, after = at, result.frequency_ratio, ""
-    where = f"sigma = {result.sigma[s]:g}, w = {w:g}{after}"
-    return warning_text(float(errors[at]), where, derive(scene.rig).ball_mode_frequency)

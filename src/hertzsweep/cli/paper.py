@@ -15,9 +15,9 @@ def paper_command(config_dir: str, out_dir: str, quick: bool) -> None:
     """The paper's Figures 3-17 and validation.md, from CONFIG_DIR/paper.toml into OUT_DIR:
     every run's dataset (OUT_DIR/NAME.nc), its figures (OUT_DIR/FIGURE.png) and the paper's
     numbers beside ours."""
-    from ..output.paper import run_paper
+    from ..api.runs import paper
 
-    run_paper(config_dir, out_dir, quick, echo=click.echo)
+    paper(config_dir, out_dir, quick, echo=click.echo)
 
 
 __all__ = ["paper_command"]

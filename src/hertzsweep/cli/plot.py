@@ -7,11 +7,9 @@ import shlex
 
 import click
 
-from ..errors import HertzsweepError
-from ..output.kinds import KINDS, figure
+from ..api.choices import KINDS
 from . import options
 from .group import cli
-from .options import read_dataset
 
 VIEW_HELP = "; ".join(f"{kind.name}: {', '.join(kind.views)}" for kind in KINDS.values())
 DEFAULT_DPI = 200  # print quality: hertzsweep.output.plot.DPI (not imported: no matplotlib here)
@@ -68,24 +66,18 @@ def plot_command(
     """The paper-style figure of a sweep, trace, branch, study or accuracy dataset,
     picked by its hertzsweep_kind attribute. The file's metadata name the dataset, this
     command and the version."""
-    from ..output.plot import UNWRAPPED, WRAPPED, figure_format, phase_convention, write_figure
+    from ..api import plot
+    from ..api.files import figure_format, write_figure
 
     figure_format(output)
     options.claim_output(output, (input_file, *([overlay] if overlay else [])))
-    ds = read_dataset(input_file)
-    extra = read_dataset(overlay) if overlay else None
-    try:
-        with phase_convention(WRAPPED if wrap_phase else UNWRAPPED):
-            fig = figure(ds, view, harmonics or None, sigmas or None, extra)
-    except HertzsweepError as exc:
-        raise exc.with_context(input_file) from None
-    except (KeyError, AttributeError) as exc:  # a variable or coordinate the kind needs
-        kind = ds.attrs.get("hertzsweep_kind")
-        raise HertzsweepError(f"{input_file}: not a complete {kind} dataset ({exc})") from None
+    fig = plot(
+        input_file, view, harmonics=harmonics, sigmas=sigmas, overlay=overlay, wrap_phase=wrap_phase
+    )
     datasets = [input_file, *([overlay] if overlay else [])]
     arguments = {"view": view, "harmonic": harmonics, "sigma": sigmas, "overlay": overlay}
     command = command_line(input_file, output, arguments, wrap_phase, dpi)
-    made_by = str(ds.attrs.get("history", ""))
+    made_by = str(options.read_attributes(input_file).attrs.get("history", ""))
     write_figure(fig, output, dpi=dpi, datasets=datasets, command=command, made_by=made_by)
     click.echo(f"wrote {output}")
 

@@ -16,27 +16,15 @@ import os
 import signal
 from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
 import click
 
-from ..drivers.study import (
-    CASE_KINDS,
-    DaskCluster,
-    LocalPool,
-    cases_summary,
-    expand,
-    load_study,
-)
-from ..errors import Failed, Stopped
-from ..output.paths import parts_folder
+from ..errors import Failed, HertzsweepError, Stopped
 from . import options
 from .group import cli
 from .options import output_option, quiet_option
-from .progress import progress_bar
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-BAR_SMOOTHING = 0.1  # cases take seconds to minutes each: an ETA over many of them
 
 
 class StopRequest:
@@ -97,18 +85,20 @@ def study_command(
     Exit status: 0 every case finished; 1 some failed (one line each, the output holds
     the others); 130 / 143 stopped by SIGINT / SIGTERM (finished cases kept, no output;
     rerun with --resume); 2 a bad study file, key or value."""
-    if workers is not None and scheduler is not None:
-        raise click.UsageError("--workers and --scheduler exclude each other")
-    if scheduler is not None and not scheduler.strip():
-        raise click.UsageError("--scheduler: empty address (give tcp://HOST:PORT)")
+    from ..api.files import parts_folder
+    from ..api.runs import check_engine, engine_for, load_study, study_inputs
+
+    try:
+        check_engine(workers, scheduler)
+    except HertzsweepError as exc:
+        raise click.UsageError(str(exc)) from None
     # the local workers start (and warm up) while the driver imports the output layer:
     # the start-up of both overlaps
-    study = load_study(study_file, CASE_KINDS)  # the study and every case checked (with
-    cases = expand(study)  # the output) before any worker starts
+    study = load_study(study_file)  # the study and every case checked (with the output)
     options.claim_output(output, study_inputs(study_file), folders=(parts_folder(output),))
-    engine = DaskCluster(scheduler) if scheduler else LocalPool(workers)
+    engine = engine_for(workers, scheduler)  # before any worker starts
     try:
-        _run(study, cases, output, engine, resume, quiet)
+        _run(study, output, engine, resume, quiet)
     except BaseException:  # a bad study file, a failed case, a signal: no worker is needed
         engine.stop(())  # any more: the pool ends its workers once its start is done
         raise
@@ -116,68 +106,46 @@ def study_command(
         engine.close()
 
 
-def _run(study, cases, output: str, engine, resume: bool, quiet: bool) -> None:
+def _run(study, output: str, engine, resume: bool, quiet: bool) -> None:
     """The study on an engine: parts, the combined dataset and its summary."""
-    from ..output.dataset import history_line
-    from ..output.kinds import KINDS
-    from ..output.study import resumable
+    from ..api.runs import run_study
 
-    study_kind = KINDS["study"]
-    history = history_line()
-    resumed = resumable(cases, output) if resume else []
     stop = StopRequest()
-    bar = progress_bar(
-        len(cases), "study", not quiet, unit="case", initial=len(resumed), smoothing=BAR_SMOOTHING
-    )
-    with stop.installed(), bar as progress:
-        run = study_kind.run(
+    with stop.installed():
+        outcome = run_study(
             study,
-            cases,
             output,
             engine,
-            history=history,
-            resumed=resumed,
-            progress=progress,
+            options.progress(quiet),
+            options.history(),
+            resume=resume,
             stop_requested=stop,
         )
-    conclude(study_kind, study, cases, output, history, run, engine)
+    conclude(outcome, output, engine)
 
 
-def study_inputs(study_file: str) -> tuple[str, ...]:
-    """The files a study reads: the study file, the scene file it names and their rig
-    files (an output must be none of them)."""
-    from ..core.config import read_scene_files, read_toml
-
-    files = read_scene_files(study_file)[1]
-    scene = read_toml(study_file).get("scene")
-    if isinstance(scene, str):
-        files += read_scene_files(Path(study_file).parent / scene)[1]
-    return files
-
-
-def conclude(kind, study, cases, output: str, history: str, run, engine) -> None:
+def conclude(outcome, output: str, engine) -> None:
     """After a study's cases ran: one line per failed case; when stopped by a signal, the
-    finished cases kept for ``--resume``; else ONE dataset built, written and summarised
-    (exit status 1 when cases failed).
+    finished cases kept for ``--resume``; else ONE dataset written and summarised (exit
+    status 1 when cases failed).
 
     A study that writes no output (stopped, or every case failed) leaves a file already
     at ``output`` as it was, and its last line says that file is an earlier run's."""
-    from ..output.dataset import write_atomic
-    from ..output.study import failure_lines, parts_folder
+    from ..api.files import parts_folder, write
+    from ..api.runs import cases_summary
 
-    folder = parts_folder(output)
-    failures = failure_lines(run, folder)
+    run, cases, ds, failures = outcome.run, outcome.cases, outcome.dataset, outcome.failures
     for line in failures:
         click.echo(f"hertzsweep: case failed: {line}", err=True)
     if run.stopped_by:
         name = signal.Signals(run.stopped_by).name
         done = len(run.computed) + len(run.resumed)
+        folder = parts_folder(output)
         message = f"interrupted by {name}: {done} of {len(cases)} cases finished, kept in {folder}"
         raise Stopped(f"{message}; rerun with --resume{_earlier(output)}", run.stopped_by)
-    ds = kind.build(study, cases, output, history, failures)
     if ds is not None:
-        write_atomic(ds, output)
-        table = kind.summary(run, ds)
+        write(ds, output)
+        table = outcome.summary()
         if table:
             click.echo(table)
     click.echo(f"{cases_summary(run)} on {engine.name} ({engine.slots} slots)")

@@ -4,14 +4,9 @@ from __future__ import annotations
 
 import click
 
-from ..core.checks import check_record
-from ..drivers.trace import BRANCHES, DEFAULT_PERIODS, trace_count
-from ..output.kinds import KINDS
+from ..api.choices import TRACE_BRANCHES, TRACE_DEFAULT_PERIODS
 from . import options
 from .group import cli
-from .progress import progress_bar
-
-TRACE = KINDS["trace"]
 
 
 @cli.command("trace")
@@ -29,13 +24,13 @@ TRACE = KINDS["trace"]
 @click.option(
     "--periods",
     type=int,
-    default=DEFAULT_PERIODS,
+    default=TRACE_DEFAULT_PERIODS,
     show_default=True,
     help="Whole excitation periods to record.",
 )
 @click.option(
     "--branch",
-    type=click.Choice(BRANCHES),
+    type=click.Choice(TRACE_BRANCHES),
     default="upper",
     show_default=True,
     help="Reach W as a down sweep from sweep.stop (upper) or an up sweep from sweep.start (lower).",
@@ -60,26 +55,20 @@ def trace_command(
 ) -> None:
     """Settled time history of one frequency for every sigma: q, q', N/F_s and contact,
     the spectrum of N/F_s, and every flight; prints one line per sigma."""
+    from ..api.runs import check_trace, run_trace
+
     scene = options.read_scene(scene_file, overrides)
-    streamed = check_record(scene, periods, samples_per_period)
+    streamed = check_trace(scene, periods, samples_per_period)
     options.claim_output(output, scene.inputs)
+    arguments = (scene, frequency_ratio, periods, branch, samples_per_period)
 
     def run(sink=None):
-        with progress_bar(trace_count(scene, frequency_ratio, branch), "trace", not quiet) as bar:
-            return TRACE.run(
-                scene,
-                frequency_ratio,
-                periods=periods,
-                branch=branch,
-                samples_per_period=samples_per_period,
-                progress=bar,
-                sink=sink,
-            )
+        return run_trace(*arguments, progress=options.progress(quiet), sink=sink)
 
     if streamed:  # a long record goes to the file as it is integrated
-        options.write_streamed(TRACE, scene, output, run)
+        options.write_streamed(output, scene, run)
     else:
-        options.write_result(TRACE, run(), scene, output)
+        options.write_run(run(), output)
 
 
 __all__ = ["trace_command"]

@@ -24,9 +24,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +42,6 @@ from .config import (
     SweepConfig,
     from_command_line,
     load_scene,
-    parse_override,
     rig_key_furthest,
 )
 from .model import omega_max, stability_limit, stability_reason
@@ -405,18 +405,22 @@ def preflight(scene: Scene) -> Figures:
     )
 
 
-def load_checked_scene(path: str | Path, overrides: Iterable[str] = ()) -> tuple[Scene, Figures]:
-    """Read a scene with its overrides (:func:`hertzsweep.core.config.load_scene`) and
-    run :func:`preflight` on it; a failing check whose key an override gave is reported
-    under ``--set``."""
-    overrides = tuple(overrides)
+def load_checked_scene(
+    path: str | Path, overrides: Iterable[str] | Mapping[str, Any] = ()
+) -> tuple[Scene, Figures]:
+    """Read a scene with its overrides (:func:`hertzsweep.core.config.load_scene`: ``--set``
+    texts or a ``{key: value}`` mapping) and run :func:`check_scene` on it."""
     scene = load_scene(path, overrides)
-    overridden = {parse_override(text)[0] for text in overrides}
+    return scene, check_scene(scene)
+
+
+def check_scene(scene: Scene) -> Figures:
+    """:func:`preflight`, a failing check whose key an override gave reported under
+    ``--set`` (:attr:`Scene.overridden <hertzsweep.core.config.Scene>`)."""
     try:
-        figures = preflight(scene)
+        return preflight(scene)
     except ConfigError as exc:
-        raise from_command_line(exc, overridden) from None
-    return scene, figures
+        raise from_command_line(exc, scene.overridden) from None
 
 
 # --------------------------------------------------------------------------- trace
@@ -441,7 +445,7 @@ def record_bytes(scene: Scene, samples: int) -> int:
     (:func:`streams_record`): per sample only one sigma's N/F_s in the transform's input
     (1 float), the spectrum's orders and frequencies (1 float), the writer's buffers (1
     float) and, per sigma, the spectrum; per sigma and sample, the in-file record costs
-    no memory (measured: 17.9-18.4 bytes per sample and sigma with 2 sigma, README).
+    no memory (measured: 17.9-18.4 bytes per sample and sigma with 2 sigma).
     """
     sigma = len(scene.excitation.sigma)
     if streams_record(scene, samples):
@@ -524,6 +528,7 @@ __all__ = [
     "check_steps",
     "format_size",
     "grid_count",
+    "check_scene",
     "load_checked_scene",
     "preflight",
     "rig_source",

@@ -168,6 +168,68 @@ class Scene:
     # the files the scene was read from (the scene, then its rig file if any): an output
     # path must not be one of them; not part of the scene's value
     inputs: tuple[str, ...] = field(default=(), compare=False)
+    # the dotted keys an override set (``--set``, ``overrides=``): a check that fails on
+    # one of them names ``--set`` as its source, as the command line does
+    overridden: frozenset[str] = field(default=frozenset(), compare=False)
+
+    @classmethod
+    def from_dict(
+        cls,
+        tables: Mapping[str, Any],
+        base_dir: str | os.PathLike | None = None,
+        source: str = "<scene>",
+    ) -> Scene:
+        """A scene from the tables of a scene file, with no file.
+
+        Parameters
+        ----------
+        tables : mapping
+            ``{"rig": ..., "damping": {...}, "excitation": {...}, ...}``, as a scene file's
+            TOML reads: ``rig`` is a ``[rig]`` table or the name of a rig file.
+        base_dir : path, optional
+            The folder a rig file's name is relative to (default: the working folder).
+        source : str
+            The name errors give the scene.
+
+        Returns
+        -------
+        Scene
+            Validated as a scene file's values are (:func:`scene_from_dict`); the checks
+            of a run (budgets, stability) are made when it runs.
+
+        Raises
+        ------
+        ConfigError
+            Unknown table or key, wrong type, value out of range, a missing rig file.
+        """
+        raw = _copy_tables(tables)
+        inputs = _inline_rig(raw, Path(base_dir) if base_dir is not None else Path(), source)
+        rig_source = inputs[0] if inputs else None
+        scene = scene_from_dict(raw, source=source, rig_source=rig_source)
+        return replace(scene, inputs=inputs)
+
+    def with_overrides(self, overrides: Mapping[str, Any]) -> Scene:
+        """A new scene with dotted keys set, as ``--set`` sets them.
+
+        Parameters
+        ----------
+        overrides : mapping
+            ``{"excitation.sigma": [0.01], "damping.ratio": 0.006}``: Python values, as a
+            TOML file would give them.
+
+        Raises
+        ------
+        ConfigError
+            A key of no known table, or a value the key does not accept (named under
+            ``--set``, as on the command line).
+        """
+        raw: dict[str, Any] = self.to_dict()
+        keys = apply_overrides(raw, overrides)
+        try:
+            scene = scene_from_dict(raw, source=self.source)
+        except ConfigError as exc:
+            raise from_command_line(exc, keys) from None
+        return replace(scene, inputs=self.inputs, overridden=self.overridden | keys)
 
     def attributes(self) -> dict[str, Any]:
         """Every resolved value as flat ``table_key`` attributes (netCDF-friendly)."""
@@ -356,6 +418,47 @@ CLASSES = {
     "solver": SolverConfig,
     "lockin": LockinConfig,
     "model": ModelConfig,
+}
+# What each key of SCHEMA sets, one line each ([unit] first where it has one): the manual's
+# configuration reference is generated from SCHEMA, the dataclasses' defaults and this table
+DESCRIPTIONS: dict[str, str] = {
+    "rig.geometry": "the contacts: the paper's ball between two planes, or one sphere on a plane",
+    "rig.ball_radius": "[m] radius R of the ball",
+    "rig.youngs_modulus": "[Pa] Young's modulus E, of the ball and the planes alike",
+    "rig.poisson_ratio": "[1] Poisson's ratio nu",
+    "rig.mass": "[kg] the moving mass m",
+    "rig.static_load": "[N] static load F_s (default: mass * 9.81)",
+    "rig.ball_mass": "[kg] mass of the ball, for the ball-mode estimate and the ball model "
+    "(default: from ball_radius and ball_density)",
+    "rig.ball_density": "[kg m^-3] density of the ball, for its default mass (100C6 steel)",
+    "rig.natural_frequency": "[Hz] a measured natural frequency f0 that replaces the Hertz "
+    "value of eq. (15) (k, z_s and Omega follow; default: unset)",
+    "damping.ratio": "[1] damping ratio zeta",
+    "damping.law": "viscous (eq. 8, at all times) or contact (eq. 11, only in contact)",
+    "damping.exponent": "[1] exponent n of the contact law, used by law = 'contact'",
+    "excitation.sigma": "[1] input levels F/F_s, a number or a list (a dimension of the results)",
+    "sweep.start": "[1] first frequency ratio w = f/f0 of the grid",
+    "sweep.stop": "[1] last frequency ratio of the grid (included)",
+    "sweep.step": "[1] step of the frequency ratio",
+    "sweep.directions": "the sweeps to run; each starts from rest at its first frequency",
+    "sweep.settle_periods": "periods settled at each frequency before reading, or 'auto' "
+    "(until consecutive readings agree within tolerance)",
+    "sweep.measure_periods": "periods read by the lock-in (the block size of 'auto')",
+    "sweep.tolerance": "[1] relative agreement of 'auto' settling and of the settled flag",
+    "sweep.max_settle_periods": "the most periods 'auto' settles at one frequency",
+    "sweep.jump_threshold": "[1] relative change of H1 between neighbouring frequencies that "
+    "counts as a jump",
+    "sweep.steady_state": "settle (integrate until steady) or shooting (Newton on the "
+    "one-period map)",
+    "solver.method": "the integration method: the paper's central difference (order 2) or rk4 "
+    "with located contact crossings",
+    "solver.steps_per_period": "integration steps per excitation period (above the stability "
+    "limit)",
+    "solver.max_steps": "budget of integration steps of one run: a longer run is refused before "
+    "it starts (default: hertzsweep.core.checks.DEFAULT_MAX_STEPS)",
+    "lockin.harmonics": "harmonic orders of N/F_s read by the lock-in",
+    "model.kind": "single (one degree of freedom, eq. 1/8/11) or ball (the moving mass on the "
+    "ball between two Hertz contacts)",
 }
 
 
@@ -627,55 +730,85 @@ def read_scene_files(path: str | Path) -> tuple[dict[str, Any], tuple[str, ...]]
     """
     path = Path(path)
     raw = read_toml(path)
+    return raw, (str(path), *_inline_rig(raw, path.parent, str(path), scene_path=path))
+
+
+def _inline_rig(
+    raw: dict[str, Any], base: Path, source: str, scene_path: Path | None = None
+) -> tuple[str, ...]:
+    """Replace ``rig = "file"`` (relative to ``base``) by the rig file's ``[rig]`` table,
+    in place; returns the rig file read, if any (see :func:`read_scene_files`)."""
     rig = raw.get("rig")
     if rig is not None and not isinstance(rig, str | Mapping):
+        raise ConfigError(source, "rig", f"expected a rig file name or a [rig] table, got {rig!r}")
+    if not isinstance(rig, str):
+        return ()
+    if not rig.strip():
+        raise ConfigError(source, "rig", "expected a rig file name, got an empty string")
+    rig_path = (base / rig) if not Path(rig).is_absolute() else Path(rig)
+    if not rig_path.exists():
+        raise ConfigError(source, "rig", f"rig file {str(rig_path)!r} does not exist")
+    if scene_path is not None and same_file(rig_path, scene_path):
+        raise ConfigError(source, "rig", f"names the scene file itself ({rig!r})")
+    rig_raw = read_toml(rig_path)
+    extra = set(rig_raw) - {"rig"}
+    if extra or "rig" not in rig_raw:
         raise ConfigError(
-            str(path), "rig", f"expected a rig file name or a [rig] table, got {rig!r}"
+            str(rig_path), ", ".join(sorted(extra)) or "rig", "a rig file holds only [rig]"
         )
-    if isinstance(rig, str):
-        if not rig.strip():
-            raise ConfigError(str(path), "rig", "expected a rig file name, got an empty string")
-        rig_path = (path.parent / rig) if not Path(rig).is_absolute() else Path(rig)
-        if not rig_path.exists():
-            raise ConfigError(str(path), "rig", f"rig file {str(rig_path)!r} does not exist")
-        if same_file(rig_path, path):
-            raise ConfigError(str(path), "rig", f"names the scene file itself ({rig!r})")
-        rig_raw = read_toml(rig_path)
-        extra = set(rig_raw) - {"rig"}
-        if extra or "rig" not in rig_raw:
-            raise ConfigError(
-                str(rig_path), ", ".join(sorted(extra)) or "rig", "a rig file holds only [rig]"
-            )
-        if not isinstance(rig_raw["rig"], Mapping):
-            raise ConfigError(
-                str(rig_path),
-                "rig",
-                f"a rig file holds a [rig] table, got rig = {rig_raw['rig']!r} "
-                f"(named by {str(path)!r}; a rig file cannot name another)",
-            )
-        raw["rig"] = dict(rig_raw["rig"])
-        return raw, (str(path), str(rig_path))
-    return raw, (str(path),)
+    if not isinstance(rig_raw["rig"], Mapping):
+        raise ConfigError(
+            str(rig_path),
+            "rig",
+            f"a rig file holds a [rig] table, got rig = {rig_raw['rig']!r} "
+            f"(named by {source!r}; a rig file cannot name another)",
+        )
+    raw["rig"] = dict(rig_raw["rig"])
+    return (str(rig_path),)
 
 
-def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> Scene:
+def _copy_tables(tables: Mapping[str, Any]) -> dict[str, Any]:
+    """A scene's tables copied two levels deep (a table's lists copied too), so that
+    applying overrides never changes the caller's mapping."""
+    if not isinstance(tables, Mapping):
+        raise ConfigError("<scene>", "", f"expected a mapping of tables, got {tables!r}")
+    return {
+        name: {k: list(v) if isinstance(v, list) else v for k, v in table.items()}
+        if isinstance(table, Mapping)
+        else table
+        for name, table in tables.items()
+    }
+
+
+Overrides = Iterable[str] | Mapping[str, Any]  # "table.key=value" texts, or {key: value}
+
+
+def apply_overrides(raw: dict[str, Any], overrides: Overrides) -> frozenset[str]:
+    """Apply ``--set`` texts (``"damping.ratio=0.01"``) or a ``{dotted key: value}``
+    mapping to raw scene tables, in place; returns the keys set."""
+    if isinstance(overrides, Mapping):
+        pairs = [(str(key), value) for key, value in overrides.items()]
+    else:
+        pairs = [parse_override(text) for text in overrides]
+    for key, value in pairs:
+        apply_override(raw, key, value)
+    return frozenset(key for key, _ in pairs)
+
+
+def load_scene(path: str | Path, overrides: Overrides = ()) -> Scene:
     """Read, override and validate a scene file (or a rig file, which gets defaults).
 
     An error in the values of a rig file the scene names is reported under the rig
     file's name; one in a value given by an override, under ``--set``.
     """
     raw, inputs = read_scene_files(path)
-    overridden = set()
-    for text in overrides:
-        key, value = parse_override(text)
-        apply_override(raw, key, value)
-        overridden.add(key)
+    overridden = apply_overrides(raw, overrides)
     rig_source = inputs[1] if len(inputs) > 1 else None
     try:
         scene = scene_from_dict(raw, source=str(path), rig_source=rig_source)
     except ConfigError as exc:
         raise from_command_line(exc, overridden) from None
-    return replace(scene, inputs=inputs)
+    return replace(scene, inputs=inputs, overridden=overridden)
 
 
 def from_command_line(exc: ConfigError, overridden: Iterable[str]) -> ConfigError:

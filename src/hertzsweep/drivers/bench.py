@@ -752,13 +752,15 @@ CONFIGS = Path(__file__).resolve().parents[3] / "configs"  # a checkout's scenes
 
 
 def command_lines(python: str, program: str) -> dict[str, list[str]]:
-    """The whole processes timed by :func:`command_times`: bare interpreters as floors, and
-    the commands as a shell, a Makefile or CI runs them (scene files of the checkout)."""
+    """The whole processes timed by :func:`command_times`: bare interpreters as floors, the
+    package's import alone, and the commands as a shell, a Makefile or CI runs them (scene
+    files of the checkout)."""
     scene = str(CONFIGS / "default.toml")
     study = str(CONFIGS / "studies" / "fig15.toml")
     return {
         "python_import_numpy": [python, "-c", "import numpy"],
         "python_import_numpy_numba": [python, "-c", "import numpy, numba"],
+        "python_import_hertzsweep": [python, "-c", "import hertzsweep"],
         "help": [program, "--help"],
         "rig": [program, "rig", str(CONFIGS / "rig.toml")],
         "demo_sweep": [program, "sweep", scene, "-o", "{out}", "-q"],
@@ -798,6 +800,9 @@ def command_times(runs: int = 5, study_runs: int = 3) -> dict[str, Any]:
             out[f"command_seconds_{name}"] = statistics.median(seconds)
     numpy_floor = out["command_seconds_python_import_numpy"]
     numba_floor = out["command_seconds_python_import_numpy_numba"]
+    out["ratio_import_hertzsweep_to_import_numpy"] = (
+        out["command_seconds_python_import_hertzsweep"] / numpy_floor
+    )
     out["ratio_help_to_import_numpy"] = out["command_seconds_help"] / numpy_floor
     out["ratio_rig_to_import_numpy"] = out["command_seconds_rig"] / numpy_floor
     out["ratio_demo_sweep_to_import_numpy_numba"] = out["command_seconds_demo_sweep"] / numba_floor

@@ -12,6 +12,9 @@ Every dataset is a record of how it was made (:func:`global_attributes`): the co
 command line with absolute paths and the working directory (``history``), the whole
 resolved configuration as JSON (``config_json``, a scene file's tables) and the command's
 own arguments (``command_json``): ``hertzsweep rerun`` runs it again from these.
+The global attributes come in one order, in memory and in the file
+(:func:`ordered_attributes`): the ACDD and CF ones first (``title``, ``summary``, ...),
+then the rig's, the scene's, the solver's, the provenance and a kind's own.
 
 Files are netCDF4 written by the netCDF4 library itself (:func:`write_netcdf`): CF-1.11
 clean as the compliance checker reads it (no ``_FillValue`` on coordinates, strings as
@@ -34,7 +37,8 @@ import shlex
 import subprocess
 import sys
 import tomllib
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import fields
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -42,7 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import __version__
-from ..core.config import Scene
+from ..core.config import RigConfig, Scene
 from ..core.rig import RigConstants, derive
 from ..drivers.readings import HARMONIC_FIELDS, SCALAR_FIELDS
 from .frame import Frame, Variable, load_xarray
@@ -62,6 +66,73 @@ REFERENCES = (  # the paper whose rig, model and figures hertzsweep reproduces
     "vibrations of an impacting Hertzian contact. Part 1: harmonic excitation, Journal of "
     "Sound and Vibration 265 (2003) 289-307"
 )
+SUMMARIES = {  # kind -> the ACDD ``summary`` of its datasets: what one holds, in a sentence
+    "sweep": (
+        "Lock-in readings of the normalised contact force (harmonic amplitudes and phases, "
+        "extremes, loss of contact) at each dwell of stepped-sine sweeps up and down in "
+        "frequency, for each input level, with the jump frequencies."
+    ),
+    "trace": (
+        "Time history of the displacement, velocity and contact force at one frequency, "
+        "with its spectrum, its lock-in readings and its flights (losses of contact)."
+    ),
+    "branch": (
+        "Periodic orbits followed in frequency by shooting and pseudo-arclength "
+        "continuation, for each input level: their readings, Floquet multipliers, "
+        "stability and bifurcations."
+    ),
+    "accuracy": (
+        "Errors of a sweep against a reference of finer solver settings, with the cost of "
+        "each setting, the observed order of the scheme and the recommended setting."
+    ),
+    "study": (
+        "The results of one kind of run over a grid of scene values, one case per grid "
+        "point, failed cases marked."
+    ),
+    "measured": (
+        "Measurements of a stepped-sine test (harmonic amplitudes and phases, or jump "
+        "frequencies) in the layout of a sweep, read from a CSV file."
+    ),
+    "fit": (
+        "Scene values identified by least squares from measurements, with their standard "
+        "errors, the fitted model at every measured point and the residuals."
+    ),
+}
+RIG_ATTRIBUTES = (  # the rig's attributes: its table (Scene.attributes), its derived constants
+    "rig_geometry",
+    *(field.name for field in fields(RigConfig) if field.name != "geometry"),
+    *(field.name for field in fields(RigConstants)),
+)
+ATTRIBUTE_ORDER = (  # the order of the global attributes (ordered_attributes); NAME or PREFIX*
+    # ACDD 1.3 and CF: what the dataset is and where it comes from, read first
+    "title",
+    "summary",
+    "Conventions",
+    "source",
+    "history",
+    "references",
+    "hertzsweep_kind",
+    "hertzsweep_version",
+    *RIG_ATTRIBUTES,
+    # the scene's other tables, as Scene.attributes names them
+    "damping_*",
+    "excitation_*",
+    "sweep_*",
+    "lockin_*",
+    "model_*",
+    # the solver
+    "solver_*",
+    "steps_per_period",
+    # provenance: the code and the whole configuration and command (rerun)
+    "git_commit",
+    "git_modified",
+    "python_version",
+    "numpy_version",
+    "numba_version",
+    "config_json",
+    "command_json",
+    "scene_file",
+)  # then every other attribute (a kind's own), in the order it was added
 INDEX = np.int32  # integer type of indices, orders and counts (a harmonic, a point, ...)
 STEP_COUNT = np.int64  # integer type of integration-step counts: a study passes 2**31
 GIT_SECONDS = 5.0  # at most this long for each git query of the provenance
@@ -80,6 +151,33 @@ def attributes() -> dict[str, dict[str, Any]]:
 def attrs(name: str) -> dict[str, Any]:
     """CF attributes of a named variable from :func:`attributes` (a copy to add to)."""
     return dict(attributes()[name])
+
+
+def ordered_attributes(attributes: Mapping[str, Any]) -> dict[str, Any]:
+    """Global attributes in the order of :data:`ATTRIBUTE_ORDER`.
+
+    Parameters
+    ----------
+    attributes : mapping
+        A dataset's global attributes.
+
+    Returns
+    -------
+    dict
+        The same attributes, those :data:`ATTRIBUTE_ORDER` names in its order (those of
+        one prefix in their own), then the others in their own order.
+    """
+    return dict(sorted(attributes.items(), key=lambda item: _attribute_rank(item[0])))
+
+
+@functools.cache
+def _attribute_rank(name: str) -> int:
+    """The place of an attribute in :data:`ATTRIBUTE_ORDER`: its first entry that is the
+    name or a prefix (``sweep_*``) of it; past the end for the others."""
+    for rank, entry in enumerate(ATTRIBUTE_ORDER):
+        if name == entry or (entry.endswith("*") and name.startswith(entry[:-1])):
+            return rank
+    return len(ATTRIBUTE_ORDER)
 
 
 # --------------------------------------------------------------------------- provenance
@@ -189,16 +287,18 @@ def global_attributes(
     history: str | None = None,
     command: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The global attributes every dataset carries: conventions, the paper, the code
-    (:func:`provenance`), how it was made (``history``; ``config_json``, the scene's
-    tables with the rig inline, :meth:`~hertzsweep.core.config.Scene.to_dict`;
-    ``command_json``, the command and the arguments it ran with, by default
-    ``{"command": kind}``), every resolved config value as a flat attribute and the rig's
-    derived constants."""
+    """The global attributes every dataset carries: conventions, the paper, what the
+    dataset holds (``summary``, :data:`SUMMARIES`), the code (:func:`provenance`), how it
+    was made (``history``; ``config_json``, the scene's tables with the rig inline,
+    :meth:`~hertzsweep.core.config.Scene.to_dict`; ``command_json``, the command and the
+    arguments it ran with, by default ``{"command": kind}``), every resolved config value
+    as a flat attribute and the rig's derived constants; in the order of
+    :func:`ordered_attributes`."""
     constants = derive(scene.rig)
     out: dict[str, Any] = {
         "Conventions": CONVENTIONS,
         "title": title,
+        **({"summary": SUMMARIES[kind]} if kind in SUMMARIES else {}),
         "history": history or history_line(),
         "source": f"hertzsweep {__version__}",
         "references": REFERENCES,
@@ -212,7 +312,7 @@ def global_attributes(
         out[key] = _netcdf_value(value)
     for key, value in constants.as_dict().items():
         out[key] = float(value)
-    return out
+    return ordered_attributes(out)
 
 
 def _absolute(source: str) -> str:
@@ -302,7 +402,7 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
     title = "Stepped-sine sweep of a preloaded Hertzian contact"
     ds = _build(data, _coords(result, constants), global_attributes(scene, title, "sweep", history))
     _flags(ds, ("settled", "periodic"), YES_NO, "no yes")
-    ds.attrs["integration_steps"] = int(result.steps)
+    merge_attributes(ds, {"integration_steps": int(result.steps)})
     return ds
 
 
@@ -378,7 +478,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
     complete = np.array([-1, 0, 1], dtype=np.int8)
     _flags(ds, ("flight_complete",), complete, "no_flight cut_by_record complete")
     approach = np.asarray(result.approach)
-    ds.attrs.update(
+    extra = dict(
         frequency_ratio=w,
         frequency=w * f0,
         branch=result.branch,
@@ -390,6 +490,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
         spectrum_backend=result.spectrum_backend,
         integration_steps=int(result.steps),
     )
+    merge_attributes(ds, extra)
     return ds
 
 
@@ -468,11 +569,12 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
     stable = np.array([-1, 0, 1], dtype=np.int8)
     _flags(ds, ("stable",), stable, "no_point unstable stable")
     _flags(ds, ("branch_complete",), YES_NO, "no yes")
-    ds.attrs.update(
-        integration_steps=int(result.steps),
-        branch_start_frequency_ratio=float(result.start_frequency_ratio),
-        branch_end_frequency_ratio=float(result.end_frequency_ratio),
-    )
+    extra = {
+        "integration_steps": int(result.steps),
+        "branch_start_frequency_ratio": float(result.start_frequency_ratio),
+        "branch_end_frequency_ratio": float(result.end_frequency_ratio),
+    }
+    merge_attributes(ds, extra)
     return ds
 
 
@@ -588,7 +690,6 @@ def write_atomic(ds: Frame | xr.Dataset, path: str | os.PathLike) -> Path:
 
 
 COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}  # float arrays: about 2x smaller
-MEMORY_START = 1 << 16  # [bytes] first size of the in-memory file (it grows as needed)
 SLAB_BYTES = 1 << 21  # [bytes] a compressed variable whose last axis is longer than this
 # (a long trace's spectrum) is stored in HDF5 chunks of this size along it (one index of
 # the others), written chunk by chunk with a cache of one: what netCDF4 and HDF5 copy and
@@ -610,9 +711,10 @@ def write_netcdf(ds: Frame | xr.Dataset, path: str | os.PathLike) -> None:
       ``coordinates`` (CF 5), which xarray reads back as coordinates;
     - booleans are written as int8; float data arrays are compressed.
 
-    The file is made in memory and written with one stream of ``write`` calls and an
-    ``fsync`` (:func:`~hertzsweep.output.paths.write_file`), so a write that fails raises
-    the OS's own error (no space, I/O error), not the HDF5 library's "HDF error".
+    The file is built on a scratch file in memory (:func:`_built`) and written with one
+    stream of ``write`` calls and an ``fsync`` (:func:`~hertzsweep.output.paths.write_file`),
+    so a write that fails raises the OS's own error (no space, I/O error), not the HDF5
+    library's "HDF error".
 
     Raises
     ------
@@ -622,27 +724,64 @@ def write_netcdf(ds: Frame | xr.Dataset, path: str | os.PathLike) -> None:
         A variable of a type netCDF has no place for (complex, datetime, object other
         than strings), or an attribute that is None.
     """
+    with _built(ds) as scratch:
+        write_file(path, scratch.read_bytes())
+
+
+SCRATCH_FOLDERS = ("/dev/shm",)  # RAM-backed folders to build a file in; else the temp dir
+SCRATCH_ROOM = 1 << 30  # [bytes] free room a scratch folder must have to be used
+
+
+@contextlib.contextmanager
+def _built(ds: Frame | xr.Dataset) -> Iterator[Path]:
+    """A netCDF4 file of ``ds`` built on a scratch file (removed on exit), in a RAM-backed
+    folder where there is one.
+
+    netCDF's own in-memory files (``memory=``) are created without HDF5's attribute
+    creation order, so that more than eight global attributes are listed in the order of
+    their names' hashes (Unidata/netcdf-c#3334); a file netCDF creates on a path keeps
+    the order in which :func:`_fill` writes them (:func:`ordered_attributes`)."""
+    import tempfile
+
     import netCDF4
 
-    if not getattr(netCDF4, "__has_nc_create_mem__", False):  # a library without it
-        with netCDF4.Dataset(path, "w", format="NETCDF4") as nc:
+    with tempfile.TemporaryDirectory(prefix="hertzsweep-", dir=_scratch_folder()) as folder:
+        scratch = Path(folder) / "dataset.nc"
+        nc = netCDF4.Dataset(scratch, "w", format="NETCDF4")
+        try:
             _fill(nc, ds)
-        return
-    nc = netCDF4.Dataset(os.fspath(path), "w", format="NETCDF4", memory=MEMORY_START)
-    try:
-        _fill(nc, ds)
-    except BaseException:
-        with contextlib.suppress(Exception):
+        finally:
             nc.close()
-        raise
-    write_file(path, _hdf5_image(nc.close()))
+        yield scratch
+
+
+def _scratch_folder() -> str | None:
+    """The first of :data:`SCRATCH_FOLDERS` that is writable with room, else None (the
+    system's temporary folder)."""
+    for folder in SCRATCH_FOLDERS:
+        try:
+            room = os.statvfs(folder)
+        except OSError:
+            continue
+        if os.access(folder, os.W_OK) and room.f_bavail * room.f_frsize >= SCRATCH_ROOM:
+            return folder
+    return None
+
+
+def as_written(ds: Frame | xr.Dataset) -> xr.Dataset:
+    """The :class:`xarray.Dataset` that reading the file :func:`write_netcdf` writes of
+    ``ds`` gives (built as it is built and read back: every conversion of the format
+    applied, e.g. a one-element attribute read as a number, booleans as int8)."""
+    with _built(ds) as scratch:
+        return open_dataset(scratch)
 
 
 def _fill(nc: Any, ds: Frame | xr.Dataset) -> None:
     """The attributes, dimensions and variables of a dataset into an open netCDF4 file;
     a variable the file has already (streamed, :class:`RecordStream`) gets its
-    attributes, its values stay."""
-    for key, value in ds.attrs.items():
+    attributes, its values stay. The global attributes are written in the order of
+    :func:`ordered_attributes`, whatever order they were added in."""
+    for key, value in ordered_attributes(ds.attrs).items():
         nc.setncattr(key, _attribute(key, value))
     for dim, size in ds.sizes.items():
         if str(dim) not in nc.dimensions:
@@ -654,21 +793,6 @@ def _fill(nc: Any, ds: Frame | xr.Dataset) -> None:
         is_coordinate = name in ds.coords
         extra = {"coordinates": coordinates[name]} if name in coordinates else {}
         _write_variable(nc, str(name), var, is_coordinate, extra)
-
-
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-
-
-def _hdf5_image(image: memoryview) -> memoryview:
-    """An HDF5 file image cut at its end-of-file address: the in-memory file grows by
-    whole blocks, the bytes past the end are zeros that no reader needs. Superblock
-    versions 2 and 3 with 8-byte addresses (what netCDF4 writes) are cut; any other
-    image is kept whole."""
-    head = bytes(image[:36])
-    if len(head) < 36 or head[:8] != HDF5_SIGNATURE or head[8] not in (2, 3) or head[9] != 8:
-        return image
-    end = int.from_bytes(head[28:36], "little")
-    return image[:end] if 0 < end <= len(image) else image
 
 
 def _coordinates_attributes(ds: Frame | xr.Dataset) -> dict[Any, str]:
@@ -906,6 +1030,8 @@ def read_attributes(path: str | os.PathLike) -> dict[str, Any]:
 
 
 def merge_attributes(ds: Frame | xr.Dataset, extra: Mapping[str, Any]) -> Frame | xr.Dataset:
-    """Add global attributes, converted for netCDF (bools to 0/1, lists to arrays)."""
-    ds.attrs.update({k: _netcdf_value(v) for k, v in extra.items()})
+    """Add global attributes, converted for netCDF (bools to 0/1, lists to arrays); all
+    of them in the order of :func:`ordered_attributes`, the order the file gets."""
+    merged = {**ds.attrs, **{k: _netcdf_value(v) for k, v in extra.items()}}
+    ds.attrs = ordered_attributes(merged)
     return ds

@@ -42,7 +42,17 @@ from ..drivers.fit import (
     SweepMeasurements,
 )
 from ..errors import ConfigError, HertzsweepError, MeasurementError
-from .dataset import CONVENTIONS, attrs, global_attributes, history_line, provenance
+from .dataset import (
+    CONVENTIONS,
+    REFERENCES,
+    SUMMARIES,
+    attrs,
+    global_attributes,
+    history_line,
+    merge_attributes,
+    ordered_attributes,
+    provenance,
+)
 from .frame import load_xarray
 
 xr = load_xarray()  # xarray with its dask probe kept quiet
@@ -249,15 +259,19 @@ def _parse_rows(table: _Table, kind: str, frequency: str) -> dict[str, list[Any]
 
 # --------------------------------------------------------------------------- datasets
 def _base_attributes(title: str, kind: str, history: str | None) -> dict[str, Any]:
-    """Conventions and provenance of a dataset made without a scene."""
-    return {
+    """Conventions and provenance of a dataset made without a scene, in the order of
+    :func:`~hertzsweep.output.dataset.ordered_attributes`."""
+    out = {
         "Conventions": CONVENTIONS,
         "title": title,
+        "summary": SUMMARIES[kind],
         "history": history or history_line(),
         "source": f"hertzsweep {__version__}",
+        "references": REFERENCES,
         "hertzsweep_kind": kind,
         **provenance(),
     }
+    return ordered_attributes(out)
 
 
 def _frequency_name(data: Measurements) -> str:
@@ -337,7 +351,9 @@ def measured_dataset(
     if reference is not None:
         variables["reference"] = (("direction", "sigma"), reference, attrs("reference"))
     ds = xr.Dataset(variables, coords=coords, attrs=_base_attributes(title, KIND, history))
-    ds.attrs.update(measured_kind=data.kind, measured_file=os.path.abspath(data.source))
+    merge_attributes(
+        ds, {"measured_kind": data.kind, "measured_file": os.path.abspath(data.source)}
+    )
     return ds
 
 
@@ -439,22 +455,23 @@ def fit_dataset(
         coords=coords,
         attrs=global_attributes(result.scene, title, FIT_KIND, history, command=command),
     )
-    ds.attrs.update(
-        measured_kind=data.kind,
-        measured_file=os.path.abspath(data.source),
-        fit_method=result.method,
-        fit_free=",".join(result.keys),
-        residual_rms=float(result.residual_rms),
-        residual_units=RESIDUAL_UNITS,
-        fit_residuals=int(result.residuals.size),
-        fit_evaluations=int(result.evaluations),
-        fit_success=int(result.success),
-        fit_message=result.message,
-    )
+    extra: dict[str, Any] = {
+        "measured_kind": data.kind,
+        "measured_file": os.path.abspath(data.source),
+        "fit_method": result.method,
+        "fit_free": ",".join(result.keys),
+        "residual_rms": float(result.residual_rms),
+        "residual_units": RESIDUAL_UNITS,
+        "fit_residuals": int(result.residuals.size),
+        "fit_evaluations": int(result.evaluations),
+        "fit_success": int(result.success),
+        "fit_message": result.message,
+    }
     for key, x, s in zip(result.keys, result.estimate, result.standard_error, strict=True):
         name = key.replace(".", "_")
-        ds.attrs[f"fit_{name}"] = float(x)
-        ds.attrs[f"fit_{name}_standard_error"] = float(s)
+        extra[f"fit_{name}"] = float(x)
+        extra[f"fit_{name}_standard_error"] = float(s)
+    merge_attributes(ds, extra)
     return ds
 
 

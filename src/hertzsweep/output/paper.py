@@ -616,7 +616,7 @@ def validation_report(result: PaperResult, quick: bool) -> str:
 
 def grid_notes(runs: list[Run], datasets: Mapping[str, xr.Dataset]) -> list[str]:
     """One line per study run whose frequency step differs from its study file's (the
-    step of ``make fig15`` and of the README's table): which step each used and what
+    step of ``make fig15`` and of the manual's table): which step each used and what
     follows for the jump frequencies, which are known to one step."""
     notes = []
     for run in runs:
@@ -632,11 +632,12 @@ def grid_notes(runs: list[Run], datasets: Mapping[str, xr.Dataset]) -> list[str]
         notes.append(
             f"{figures} (run `{run.name}`) sweeps with a frequency step of {used:g}, not the "
             f"{own:g} of its study file `{run.source.name}` (that of `make fig15` and of the "
-            "README's Figure 15 table), to keep this run short. Its jump frequencies differ "
+            "manual's Figure 15 table, docs/tutorials/paper-figures.md), to keep this run "
+            "short. Its jump frequencies differ "
             "from that table's, by more than one step in places: a jump is known to one step "
             "only; over a coarser step a steep resonance that does not jump can change by "
             "more than `sweep.jump_threshold` and count as a jump; and a stepped sine is a "
             "sequence of dwells, so larger steps leave an impacting branch earlier, at a "
-            "higher frequency. The README gives the differences measured."
+            "higher frequency. The manual gives the differences measured."
         )
     return notes

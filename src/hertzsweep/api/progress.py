@@ -1,5 +1,7 @@
-"""Progress meters, injected: the core takes a callable ``progress(n)`` or None and never
-imports tqdm; the CLI builds a tqdm bar (on stderr, off with --quiet or without a TTY).
+"""Progress meters, injected: the engine takes a callable ``progress(n)`` or None and never
+imports tqdm. The command line shows a tqdm bar on stderr (off with --quiet or without a
+TTY); the Python API shows the same bar when asked (``progress=True``), as tqdm's notebook
+widget in Jupyter (:mod:`tqdm.auto` picks it), whether or not stderr is a terminal.
 
 A bar is redrawn every :data:`TICK_SECONDS` by a thread of its own, so its elapsed time
 keeps running while the units are long: a study's cases take seconds to minutes each, and
@@ -31,14 +33,19 @@ def progress_bar(
     initial: int = 0,
     smoothing: float = SMOOTHING,
     tick: float = TICK_SECONDS,
+    terminal_only: bool = True,
 ) -> Iterator[Callable[[int], None] | None]:
     """A tqdm bar's ``update`` for ``total`` units (``initial`` of them already done), or
-    None when disabled or not a TTY. The bar shows the units done of the total, the
-    elapsed time (redrawn every ``tick`` seconds) and the time left."""
-    if not enabled or not sys.stderr.isatty():
+    None when disabled (or, with ``terminal_only``, when stderr is not a TTY). The bar
+    shows the units done of the total, the elapsed time (redrawn every ``tick`` seconds)
+    and the time left; in Jupyter, without ``terminal_only``, it is tqdm's notebook bar."""
+    if not enabled or (terminal_only and not sys.stderr.isatty()):
         yield None
         return
-    from tqdm import tqdm
+    if terminal_only:
+        from tqdm import tqdm
+    else:
+        from tqdm.auto import tqdm
 
     with tqdm(
         total=total,
