@@ -345,7 +345,10 @@ def test_bad_inputs_raise_the_command_lines_errors(tmp_path):
     assert compared > 300, by_group
 
 
+IMPORT_OPTIONS = ("preset", "rms", "phase_convention", "phase_unit", "sensitivity", "static_load",
+                  "sigma", "force_amplitude", "direction", "moving_mass")  # fmt: skip
 API_COMMANDS = {
+    "export",
     "validate",
     "rig",
     "sweep",
@@ -367,6 +370,7 @@ def api_call(argv):
 
     from hertzsweep.api.runs import parse_overrides, parse_variable_tolerances
     from hertzsweep.cli.group import cli
+    from hertzsweep.cli.importing import parse_columns
 
     name, *args = [os.fsdecode(a) for a in argv]
     if name not in API_COMMANDS:
@@ -377,6 +381,8 @@ def api_call(argv):
     except (click.ClickException, HertzsweepError, OSError):
         return None
     p = ctx.params
+    if p.get("map_file"):
+        return None  # --map is the command line's file of options
 
     def scene():
         return hs.load_scene(p["scene_file"], overrides=parse_overrides(p["overrides"]))
@@ -401,7 +407,19 @@ def api_call(argv):
             methods=p["methods_text"],
             quick=p["quick"],
         ),
-        "import": lambda: hs.import_measurements(p["csv_file"]),
+        "import": lambda: hs.import_measurements(
+            p["measured_file"],
+            columns=parse_columns(p["columns_text"]),
+            **{k: p[k] for k in IMPORT_OPTIONS},
+            rig=p["rig_file"],
+        ),
+        "export": lambda: hs.export(
+            p["input_file"],
+            p["output"],
+            p["file_format"],
+            sensitivity=p["sensitivity"],
+            static_load=p["static_load"],
+        ),
         "fit": lambda: hs.fit(
             p["measured_file"],
             scene(),

@@ -608,6 +608,78 @@ case("commands", "import:directory", "import", "data", "-o", "out.nc",
      special=(("dir", "data"),), expect=("data",))  # fmt: skip
 case("commands", "import:fifo", "import", "data.csv", "-o", "out.nc",
      special=(("fifo", "data.csv"),), expect=("data.csv",), idle=True)  # fmt: skip
+LOCKIN = "freq,X,Y\n230,0.01,-0.02\n231,0.012,-0.03\n232,0.011,-0.04\n"  # SR830-style, volts
+LOCKIN_MAP = ("--columns", "frequency=freq,x=X,y=Y")
+case("commands", "import:lockin-unknown-quantity", "import", "data.csv", "-o", "out.nc",
+     "--columns", "frequency=freq,x=X,y=Y,bogus=Z", "--sigma", "0.01",
+     files={"data.csv": LOCKIN}, expect=("data.csv", "--columns"))  # fmt: skip
+case("commands", "import:lockin-missing-column", "import", "data.csv", "-o", "out.nc",
+     "--columns", "frequency=freq,x=X,y=Yq", "--sigma", "0.01",
+     files={"data.csv": LOCKIN}, expect=("data.csv", "Yq"))  # fmt: skip
+case("commands", "import:lockin-negative-sensitivity", "import", "data.csv", "-o", "out.nc",
+     *LOCKIN_MAP, "--sigma", "0.01", "--sensitivity", "-0.0224", "--static-load", "110",
+     files={"data.csv": LOCKIN}, expect=("data.csv", "--sensitivity"))  # fmt: skip
+case("commands", "import:lockin-not-monotonic", "import", "data.csv", "-o", "out.nc",
+     *LOCKIN_MAP, "--sigma", "0.01", "--direction", "up",
+     files={"data.csv": LOCKIN.replace("231,", "229,")}, expect=("data.csv", "freq"))  # fmt: skip
+case("commands", "import:lockin-not-a-number", "import", "data.csv", "-o", "out.nc",
+     *LOCKIN_MAP, "--sigma", "0.01",
+     files={"data.csv": LOCKIN.replace("0.012", "abc")}, expect=("data.csv", "X"))  # fmt: skip
+case("commands", "import:lockin-no-level", "import", "data.csv", "-o", "out.nc", *LOCKIN_MAP,
+     files={"data.csv": LOCKIN}, expect=("data.csv", "--sigma"))  # fmt: skip
+case("commands", "import:lockin-sensitivity-without-load", "import", "data.csv", "-o", "out.nc",
+     *LOCKIN_MAP, "--sigma", "0.01", "--sensitivity", "0.0224",
+     files={"data.csv": LOCKIN}, expect=("data.csv", "--static-load"))  # fmt: skip
+case("commands", "import:json-not-rows", "import", "data.json", "-o", "out.nc", *LOCKIN_MAP,
+     "--sigma", "0.01", files={"data.json": "[1, 2, 3]"}, expect=("data.json",))  # fmt: skip
+case("commands", "import:map-unknown-key", "import", "data.csv", "-o", "out.nc",
+     "--map", "map.toml", "--sigma", "0.01",
+     files={"data.csv": LOCKIN, "map.toml": "bogus = 1\n"},
+     expect=("map.toml", "bogus"))  # fmt: skip
+case("commands", "import:map-not-toml", "import", "data.csv", "-o", "out.nc",
+     "--map", "map.toml", "--sigma", "0.01",
+     files={"data.csv": LOCKIN, "map.toml": "[columns\n"}, expect=("map.toml",))  # fmt: skip
+case("commands", "export:missing", "export", "missing.nc", "-o", "out.uff",
+     expect=("missing.nc",))  # fmt: skip
+case("commands", "export:not-netcdf", "export", "data.nc", "-o", "out.uff",
+     files={"data.nc": GARBAGE}, expect=("data.nc",))  # fmt: skip
+case("commands", "export:foreign-netcdf", "export", "data.nc", "-o", "out.uff",
+     special=(("netcdf", "data.nc"),), expect=("hertzsweep_kind",))  # fmt: skip
+
+
+def uff_bytes(**fields: Any) -> bytes:
+    """A UFF 58 file (ASCII) of one H1 set of three points written by pyuff alone, with
+    ``fields`` changed."""
+    import tempfile
+
+    import numpy as np
+    import pyuff
+
+    dset = pyuff.prepare_58(binary=0, func_type=4, rsp_node=1, rsp_dir=3, ref_node=2,
+                            ref_dir=3, abscissa_spacing=0, abscissa_spec_data_type=18,
+                            ordinate_spec_data_type=9, orddenom_spec_data_type=13,
+                            z_axis_value=0.01, x=np.array([230.0, 231.0, 232.0]),
+                            data=np.array([1 + 1j, 2 - 1j, 1.5 + 0.5j]))  # fmt: skip
+    dset["z_axis_axis_lab"] = "sigma"
+    dset.update(fields)
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "data.uff")
+        pyuff.UFF(path).write_sets([dset], mode="add")
+        with open(path, "rb") as handle:
+            return handle.read()
+
+
+case("commands", "import:uff-func-type", "import", "data.uff", "-o", "out.nc",
+     files={"data.uff": uff_bytes(func_type=1)}, expect=("data.uff", "func_type"))  # fmt: skip
+case("commands", "import:uff-accelerance-without-mass", "import", "data.uff", "-o", "out.nc",
+     files={"data.uff": uff_bytes(ordinate_spec_data_type=12)},
+     expect=("data.uff", "ordinate_spec_data_type"))  # fmt: skip
+case("commands", "import:uff-not-uff", "import", "data.uff", "-o", "out.nc",
+     files={"data.uff": "    -1\n    58\nnot a dataset\n    -1\n"},
+     expect=("data.uff",))  # fmt: skip
+case("commands", "import:uff-no-level", "import", "data.uff", "-o", "out.nc",
+     files={"data.uff": uff_bytes(z_axis_axis_lab="", z_axis_value=0.0)},
+     expect=("data.uff", "--sigma"))  # fmt: skip
 FIT = ("--scene", "scene.toml", "--free", "damping.ratio", "-o", "fit.nc", "-q")
 case("commands", "fit:missing-measurements", "fit", "missing.csv", *FIT,
      files={"scene.toml": scene()}, expect=("missing.csv",))  # fmt: skip
@@ -977,7 +1049,7 @@ def outside_state(path: str) -> tuple:
 # Commands that read files and check values, and run no compiled kernel: nothing that can
 # crash the interpreter, so their cases run in the test's own process (milliseconds, where
 # a forked process pays 0.1 s, and 2 s for plot's first import of matplotlib)
-IN_PROCESS_COMMANDS = ("validate", "rig", "plot", "compare", "import")
+IN_PROCESS_COMMANDS = ("validate", "rig", "plot", "compare", "import", "export")
 
 
 def in_process(c: Case) -> bool:

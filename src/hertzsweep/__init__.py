@@ -39,6 +39,7 @@ _API = (  # the public names of hertzsweep.api
     "compare",
     "example_path",
     "example_scene",
+    "export",
     "fit",
     "import_measurements",
     "load_scene",

@@ -317,18 +317,111 @@ def study(
 
 
 # --------------------------------------------------------------------------- measurements
-def import_measurements(path: str | os.PathLike) -> xr.Dataset:
-    """Measured sweeps (CSV: ``direction,sigma,frequency,amplitude,phase[,harmonic]``) or
-    jump frequencies (``direction,sigma,jump_frequency``) into a dataset of kind
-    ``measured`` (``hertzsweep import``).
+def import_measurements(
+    path: str | os.PathLike,
+    *,
+    columns: Mapping[str, str] | None = None,
+    preset: str | None = None,
+    rms: bool | None = None,
+    phase_convention: str | None = None,
+    phase_unit: str | None = None,
+    sensitivity: float | None = None,
+    static_load: float | None = None,
+    sigma: float | None = None,
+    force_amplitude: float | None = None,
+    direction: str | None = None,
+    moving_mass: float | None = None,
+    rig: str | os.PathLike | None = None,
+) -> xr.Dataset:
+    """Measurements into a dataset of kind ``measured`` (``hertzsweep import``). The kind
+    of file is found from its content:
+
+    - hertzsweep's CSV: sweeps (``direction,sigma,frequency,amplitude,phase[,harmonic]``,
+      peak A_k of N/F_s and phi_k in the SPEC's convention) or jump frequencies
+      (``direction,sigma,jump_frequency``);
+    - UFF 58 or 58b: ``func_type`` 4 is H1 = N1/F1, ``func_type`` 0 with ``func_id`` k
+      harmonic k; an accelerance, mobility or receptance is converted with the rig's
+      moving mass (``rig``);
+    - a lock-in table (CSV or JSON rows): ``columns`` maps ``frequency``, ``x`` and
+      ``y`` (or ``r`` and ``phase``), optionally ``harmonic``, ``direction`` and
+      ``sigma``, to the file's columns, or ``preset`` (``"labone-sweeper"``, ``"sr8xx"``)
+      names an instrument's.
+
+    Parameters
+    ----------
+    path : path
+    columns, preset : optional
+        A lock-in table's columns (see above).
+    rms : bool, optional
+        A lock-in's values are RMS (default) or, False, peak.
+    phase_convention : {"lock-in", "spec"}, optional
+        The phase column is the instrument's lead theta (default: phi_k = -theta) or the
+        SPEC's lag phi_k.
+    phase_unit : {"deg", "rad"}, optional
+    sensitivity : float, optional
+        [V/N] of the force transducer: volts become newtons.
+    static_load : float, optional
+        [N] F_s: newtons become N/F_s (default: the rig's, with ``rig``).
+    sigma, force_amplitude : float, optional
+        The level of a file that holds none: F/F_s, or [N] with ``static_load``.
+    direction : {"up", "down"}, optional
+        Of a file of one sweep without a direction (default: by its frequencies' order).
+    moving_mass : float, optional
+        [kg] the rig's moving mass m, for a UFF accelerance, mobility or receptance
+        (default: the rig's, with ``rig``).
+    rig : path, optional
+        A rig or scene file: its moving mass and static load.
 
     Raises
     ------
-    HertzsweepError
-        A bad file: the message names the file, the line and the column.
+    MeasurementError
+        A bad file or option: the message names the file, the line (or UFF set) and the
+        column (or key or option).
     """
+    options = runs.import_options(
+        rig,
+        columns=dict(columns) if columns else None,
+        preset=preset,
+        rms=rms,
+        phase_convention=phase_convention,
+        phase_unit=phase_unit,
+        sensitivity=sensitivity,
+        static_load=static_load,
+        sigma=sigma,
+        force_amplitude=force_amplitude,
+        direction=direction,
+        moving_mass=moving_mass,
+    )
     history = python_history(call_text("import_measurements", None, path=os.fspath(path)))
-    return runs.run_import(path, history).dataset()
+    return runs.run_import(path, options, history).dataset()
+
+
+def export(
+    ds: xr.Dataset | str | os.PathLike,
+    path: str | os.PathLike,
+    format: str = "uff58b",
+    *,
+    sensitivity: float | None = None,
+    static_load: float | None = None,
+) -> str:
+    """Write a sweep, measured or fit dataset in a format rigs read (``hertzsweep
+    export``): ``"uff58b"`` (binary Universal File Format 58, with 151 and 164 headers),
+    ``"uff58"`` (its ASCII form), ``"csv"`` (hertzsweep's measurement CSV, which
+    :func:`import_measurements` reads back) or ``"lockin-csv"`` (X and Y in volts RMS of
+    a transducer of ``sensitivity`` V/N, F_s the dataset's unless ``static_load``).
+
+    H1 goes out as an FRF (UFF ``func_type`` 4) of the transmitted force over the
+    excitation force, ``N1/F1 = A_1 exp(-i phi_1) / sigma``; higher harmonics as
+    ``func_type`` 0 with the order in ``func_id``; the direction in ``ver_num``, sigma in
+    ``z_axis_value``. Points not settled, not periodic or not measured are left out.
+
+    Returns
+    -------
+    str
+        One line: what was written and how many points were left out.
+    """
+    report = runs.export(_dataset(ds), path, format, sensitivity, static_load)
+    return report.line()
 
 
 def fit(

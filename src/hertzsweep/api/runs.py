@@ -405,10 +405,12 @@ def engine_for(workers: int | None = None, scheduler: str | None = None) -> Engi
     return DaskCluster(str(scheduler)) if scheduler else LocalPool(workers)
 
 
-def run_import(path: str | os.PathLike, history: str | None = None) -> Run:
-    """Measurements of a CSV file into a ``measured`` dataset (``hertzsweep import``)."""
+def run_import(path: str | os.PathLike, options: Any = None, history: str | None = None) -> Run:
+    """Measurements of a file (hertzsweep's CSV, UFF 58/58b, a lock-in table) into a
+    ``measured`` dataset (``hertzsweep import``); ``options``, an
+    :class:`~hertzsweep.output.import_options.ImportOptions`."""
     measured = kind("measured")
-    data = measured.run(os.fspath(path))
+    data = measured.run(os.fspath(path), options)
     return Run(measured, None, data, measured.build(data, None, history))
 
 
@@ -416,12 +418,13 @@ DATASET_SUFFIXES = (".nc", ".nc4", ".cdf")  # measurements read as a dataset; el
 
 
 def read_measurements(measured: Any) -> tuple[Any, str]:
-    """The measurements of a CSV file, of a measured dataset's file (by the suffix) or of
-    a measured :class:`xarray.Dataset`; and their name (the file, absolute)."""
+    """The measurements of a measured dataset's file (by the suffix), of any measurement
+    file :func:`hertzsweep.output.formats.read_any` reads (its levels in the file), or of a
+    measured :class:`xarray.Dataset`; and their name (the file, absolute)."""
     from pathlib import Path
 
+    from ..output.formats import read_any
     from ..output.measured import measurements_from_dataset
-    from ..output.measured import read_measurements as read_csv
 
     if not isinstance(measured, str | os.PathLike):
         return measurements_from_dataset(measured, "<dataset>"), "<dataset>"
@@ -430,7 +433,7 @@ def read_measurements(measured: Any) -> tuple[Any, str]:
         from .files import read_dataset
 
         return measurements_from_dataset(read_dataset(path), path), str(Path(path).resolve())
-    return read_csv(path), str(Path(path).resolve())
+    return read_any(path), str(Path(path).resolve())
 
 
 class _Meter:
@@ -551,3 +554,85 @@ def bench(quick: bool = False) -> dict[str, Any]:
     from ..drivers.bench import run_all
 
     return run_all(quick=quick)
+
+
+def import_options(rig: str | os.PathLike | None = None, **values: Any) -> Any:
+    """The :class:`~hertzsweep.output.import_options.ImportOptions` of the given values (None:
+    not given); ``rig``, a rig or scene file whose moving mass converts a UFF
+    accelerance, mobility or receptance."""
+    from ..output.import_options import ImportOptions
+
+    given = {key: value for key, value in values.items() if value is not None}
+    if rig is not None:
+        from ..core.config import read_rig
+        from ..core.rig import derive
+
+        rig_config = read_rig(rig)[0]
+        given.setdefault("moving_mass", rig_config.mass)
+        given.setdefault("static_load", derive(rig_config).static_load)
+    return ImportOptions(**given)
+
+
+EXPORT_FORMATS = ("uff58b", "uff58", "csv", "lockin-csv")  # hertzsweep export --format
+
+
+def export(
+    ds: Any,
+    path: str | os.PathLike,
+    format: str = "uff58b",
+    sensitivity: float | None = None,
+    static_load: float | None = None,
+) -> Any:
+    """Write a sweep, measured or fit dataset in a measurement format (``hertzsweep
+    export``): UFF 58b or 58 (:func:`hertzsweep.output.uff.export_uff`), hertzsweep's
+    measurement CSV or a lock-in-style CSV in volts RMS
+    (:mod:`hertzsweep.output.lockin_table`); returns the report of the points written
+    and left out.
+
+    Raises
+    ------
+    HertzsweepError
+        An unknown format, a dataset of another kind, a lock-in CSV without a sensitivity.
+    """
+    from ..errors import HertzsweepError
+    from ..output.kinds import kind_of
+
+    if format not in EXPORT_FORMATS:
+        known = ", ".join(EXPORT_FORMATS)
+        raise HertzsweepError(f"--format: expected one of {known}, got {format!r}")
+    name = kind_of(ds).name
+    if name not in ("sweep", "measured", "fit"):
+        raise HertzsweepError(f"cannot export a {name} dataset (sweep, measured and fit only)")
+    if format in ("uff58b", "uff58"):
+        from ..output.uff import export_uff
+
+        return export_uff(ds, path, binary=format == "uff58b")
+    from ..output import lockin_table
+
+    if format == "csv":
+        return lockin_table.write_measurement_csv(ds, path)
+    if sensitivity is None:
+        raise HertzsweepError("--sensitivity: a lock-in CSV is in volts: give the V/N")
+    return lockin_table.write_lockin_csv(ds, path, sensitivity, static_load)
+
+
+def read_option_file(path: str | os.PathLike, keys: Sequence[str]) -> dict[str, Any]:
+    """The options of a small TOML file (``import --map``): its ``[columns]`` table and
+    the option keys named in ``keys`` (as the options' names with underscores).
+
+    Raises
+    ------
+    ConfigError
+        Not TOML, a key that is no option, or columns that are not a table of strings.
+    """
+    from ..core.config import read_toml
+    from ..errors import ConfigError
+
+    raw = read_toml(path)
+    for key in raw:
+        if key not in keys:
+            raise ConfigError(str(path), key, f"unknown key (known: {', '.join(keys)})")
+    columns = raw.get("columns", {})
+    if not isinstance(columns, dict) or not all(isinstance(v, str) for v in columns.values()):
+        raise ConfigError(str(path), "columns", 'expected a table of QUANTITY = "COLUMN"')
+    return raw

@@ -27,7 +27,8 @@ COMMANDS: dict[str, tuple[str, str]] = {  # name -> (module in hertzsweep.cli, h
     "compare": ("compare", "A run against a reference dataset (exit 1 outside tolerance)."),
     "paper": ("paper", "The paper's figures and validation table."),
     "rerun": ("rerun", "Run again the command that made a dataset, from the dataset."),
-    "import": ("importing", "Measured sweeps or jump frequencies (CSV) into a dataset."),
+    "import": ("importing", "Measurements (CSV, UFF 58/58b, lock-in tables) into a dataset."),
+    "export": ("importing", "A dataset as UFF 58/58b or CSV, for the tools rigs use."),
     "fit": ("fit", "Fit f0, the damping ratio and the contact law to measurements."),
     "bench": ("bench", "The project's own speed figures."),
 }

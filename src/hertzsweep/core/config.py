@@ -599,9 +599,8 @@ def _too_large(size: int, limit: int) -> str:
     return f"too large ({size} bytes; an input file holds at most {limit} bytes)"
 
 
-def read_text(path: str | Path, limit: int = MAX_INPUT_BYTES) -> str:
-    """The text of an input file (scene, rig, study, measurements): a regular file of at
-    most ``limit`` bytes (:data:`MAX_INPUT_BYTES`), UTF-8 without NUL bytes; anything else
+def read_bytes(path: str | Path, limit: int = MAX_INPUT_BYTES) -> bytes:
+    """The bytes of an input file: a regular file of at most ``limit`` bytes; anything else
     is a ConfigError naming the file.
 
     The path is looked at (``os.stat``) before it is opened, so a FIFO, a device or a
@@ -648,6 +647,15 @@ def read_text(path: str | Path, limit: int = MAX_INPUT_BYTES) -> str:
     data = b"".join(chunks)
     if len(data) > limit:
         raise ConfigError(name, "", _too_large(len(data), limit))
+    return data
+
+
+def read_text(path: str | Path, limit: int = MAX_INPUT_BYTES) -> str:
+    """The text of an input file (scene, rig, study, measurements): a regular file of at
+    most ``limit`` bytes (:data:`MAX_INPUT_BYTES`, :func:`read_bytes`), UTF-8 without NUL
+    bytes; anything else is a ConfigError naming the file."""
+    name = str(path)
+    data = read_bytes(path, limit)
     nul = data.find(b"\0")
     if nul >= 0:
         raise ConfigError(name, "", f"not a text file (a NUL byte at offset {nul})")

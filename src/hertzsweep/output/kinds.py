@@ -180,10 +180,10 @@ def _draw_accuracy(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> F
 
 # --------------------------------------------------------------------------- measurements
 def _run_import(*args: Any, **kwargs: Any) -> Any:
-    """:func:`hertzsweep.output.measured.read_measurements`."""
-    from .measured import read_measurements
+    """:func:`hertzsweep.output.formats.read_any`: a measurement file of any kind."""
+    from .formats import read_any
 
-    return read_measurements(*args, **kwargs)
+    return read_any(*args, **kwargs)
 
 
 def _run_fit(*args: Any, **kwargs: Any) -> Any:

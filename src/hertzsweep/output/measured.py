@@ -76,22 +76,35 @@ RESIDUAL_UNITS = "relative (amplitudes and jump frequencies); radian (phases)"
 
 
 # --------------------------------------------------------------------------- CSV
+def csv_rows(source: str, text: str, delimiter: str = ",") -> list[tuple[int, list[str]]]:
+    """``(line, cells)`` of every row of a CSV text, its cells stripped; blank lines and
+    lines whose first cell starts with ``#`` left out.
+
+    Raises
+    ------
+    MeasurementError
+        Not CSV (naming the line).
+    """
+    reader = csv.reader(io.StringIO(text), delimiter=delimiter)
+    rows: list[tuple[int, list[str]]] = []
+    try:
+        for cells in reader:
+            if not cells or all(not c.strip() for c in cells):
+                continue
+            if cells[0].lstrip().startswith("#"):
+                continue
+            rows.append((reader.line_num, [c.strip() for c in cells]))
+    except csv.Error as exc:
+        raise MeasurementError(source, reader.line_num, "", f"not CSV ({exc})") from None
+    return rows
+
+
 class _Table:
     """The rows of a CSV file: ``(line, {column: cell})``, comments and blank lines out."""
 
     def __init__(self, source: str, text: str) -> None:
         self.source = source
-        reader = csv.reader(io.StringIO(text))
-        rows: list[tuple[int, list[str]]] = []
-        try:
-            for cells in reader:
-                if not cells or all(not c.strip() for c in cells):
-                    continue
-                if cells[0].lstrip().startswith("#"):
-                    continue
-                rows.append((reader.line_num, [c.strip() for c in cells]))
-        except csv.Error as exc:
-            raise MeasurementError(source, reader.line_num, "", f"not CSV ({exc})") from None
+        rows = csv_rows(source, text)
         if not rows:
             raise MeasurementError(source, 0, "", "no header line (and no data)")
         self.header_line, self.columns = rows[0]
