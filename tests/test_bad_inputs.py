@@ -364,6 +364,70 @@ case("absurd", "trace:periods-1e9", *RUN["trace"], "--periods", "1000000000",
 validate("absurd", "set:steps-per-period-2**64", scene(), "--set", "solver.steps_per_period",
          extra=("--set", f"solver.steps_per_period={2**64}"))  # fmt: skip
 
+# ---- random excitation: the bad values of a random scene -------------------------------
+# The tiny scene driven by band-limited noise (excitation.kind = "random"): 1 level x 2
+# realisations x 12 periods of 64 steps, Nyquist w = 32; every bad value is one change to it.
+RANDOM_TINY = {
+    "excitation.kind": "random",
+    "excitation.rms": [0.01],
+    "excitation.band": [0.2, 3.0],
+    "random.realisations": 2,
+    "random.duration_periods": 10,
+    "random.transient_periods": 2,
+    "random.segment_periods": 5,
+}
+RANDOM_BAD: dict[str, tuple[str, dict[str, Any], tuple]] = {
+    # id: (class, changes, what the line names besides scene.toml)
+    "band-at-nyquist": ("values", {"excitation.band": [0.2, 32.0]}, ("excitation.band", "Nyquist")),
+    "band-above-the-steps-nyquist": (
+        "values",
+        {"solver.steps_per_period": 4},  # Nyquist w = 2, below w_high = 3
+        ("excitation.band", "Nyquist"),
+    ),
+    "band-from-zero": ("values", {"excitation.band": [0.0, 3.0]}, ("excitation.band",)),
+    "band-negative": ("values", {"excitation.band": [-0.2, 3.0]}, ("excitation.band",)),
+    "band-infinite": ("values", {"excitation.band": [0.2, INF]}, ("excitation.band",)),
+    "band-empty": ("values", {"excitation.band": [1.0, 1.0]}, ("excitation.band",)),
+    "band-reversed": ("values", {"excitation.band": [3.0, 0.2]}, ("excitation.band",)),
+    "band-one-number": ("values", {"excitation.band": [0.2]}, ("excitation.band",)),
+    "band-without-a-line": (  # narrower than the record's lines 1/12 apart
+        "values",
+        {"excitation.band": [1.001, 1.002]},
+        ("excitation.band", "holds no line"),
+    ),
+    "rms-zero": ("values", {"excitation.rms": [0.0]}, ("excitation.rms",)),
+    "rms-negative": ("values", {"excitation.rms": [-0.01]}, ("excitation.rms",)),
+    "rms-zero-in-list": ("values", {"excitation.rms": [0.01, 0.0]}, ("excitation.rms",)),
+    "rms-none": ("values", {"excitation.rms": []}, ("excitation.rms",)),
+    "realisations-zero": ("values", {"random.realisations": 0}, ("random.realisations",)),
+    "realisations-negative": ("values", {"random.realisations": -1}, ("random.realisations",)),
+    "transient-longer-than-duration": (
+        "values",
+        {"random.transient_periods": 11},
+        ("random.transient_periods", "random.duration_periods"),
+    ),
+    "segment-longer-than-record": (
+        "values",
+        {"random.segment_periods": 11},
+        ("random.segment_periods", "random.duration_periods"),
+    ),
+    # the step budget: 1,536 steps beyond a budget of 1,000; 1.28e11 beyond the default
+    # 1e11; a million realisations' Welch buffers beyond the memory budget
+    "steps-beyond-max-steps": ("absurd", {"solver.max_steps": 1000}, ("solver.max_steps",)),
+    "duration-1e9": (
+        "absurd",
+        {"random.duration_periods": 10**9},
+        ("random.duration_periods", "integration steps"),
+    ),
+    "realisations-1e6": (
+        "absurd",
+        {"random.realisations": 10**6},
+        ("random.realisations", "memory budget"),
+    ),
+}
+for name, (group, changes, expect) in RANDOM_BAD.items():
+    validate(group, f"random:{name}", scene({**RANDOM_TINY, **changes}), "scene.toml", *expect)
+
 # ---- keys and tables ---------------------------------------------------------------------
 for table in TINY:
     validate("keys", f"unknown-key:{table}", scene({f"{table}.bogus": 1}), "scene.toml",

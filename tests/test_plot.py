@@ -25,6 +25,7 @@ from hertzsweep.output.kinds import KINDS, figure
 from .conftest import make_scene, run_cli
 from .test_fit import fit_drawn
 from .test_import import measured_drawn
+from .test_random_cli import random_drawn
 
 F0 = 230.776  # [Hz] the paper rig's natural frequency (tests/test_rig.py)
 
@@ -362,6 +363,7 @@ DRAWN = {  # kind -> the check that a figure draws the dataset's values; returns
     "accuracy": _accuracy_drawn,
     "measured": measured_drawn,  # tests/test_import.py draws measured datasets
     "fit": fit_drawn,  # tests/test_fit.py draws fit datasets
+    "random": random_drawn,  # tests/test_random_cli.py draws random datasets
 }
 
 

@@ -247,6 +247,10 @@ def _option_default(param: Any) -> str:
 
 # --------------------------------------------------------------------------- config
 CHECKS = {  # a validator of hertzsweep.core.config -> what it accepts
+    "_band": "two numbers `[w_low, w_high]`, 0 < w_low < w_high",
+    "_non_negative_int": "a whole number >= 0",
+    "_bin_count": "a whole number >= 2",
+    "_seed": "a whole number, 0 to 2**63 - 1",
     "_number": "a number",
     "_integer": "a whole number",
     "_positive": "a number > 0",

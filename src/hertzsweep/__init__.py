@@ -45,6 +45,7 @@ _API = (  # the public names of hertzsweep.api
     "load_scene",
     "open_dataset",
     "plot",
+    "random",
     "rig",
     "save",
     "study",

@@ -134,6 +134,29 @@ def sweep(scene: Scene, *, progress: bool = False) -> xr.Dataset:
     return runs.run_sweep(scene, progress, history).dataset()
 
 
+def random(scene: Scene, *, progress: bool = False) -> xr.Dataset:
+    """Random excitation of a scene with ``[excitation] kind = "random"`` (``hertzsweep
+    random``): Gaussian band-limited forcing at each RMS level, its realisations in
+    lockstep; the PSD of N/F_s, the FRF estimate and coherence, the moments, PDF, extremes
+    and contact-loss figures of N/F_s, each statistic with its standard error across
+    realisations.
+
+    Returns
+    -------
+    xarray.Dataset
+        Of kind ``random``, on ``rms`` (and ``frequency_ratio``, ``force_bin``).
+
+    Raises
+    ------
+    ConfigError
+        A scene that is not random, or whose run is refused (budgets, stability).
+    Interrupted
+        Ctrl-C (a :class:`KeyboardInterrupt`); ``exc.partial`` holds the finished segments.
+    """
+    history = python_history(call_text("random", scene))
+    return runs.run_random(scene, progress, history).dataset()
+
+
 def trace(
     scene: Scene,
     frequency_ratio: float,
@@ -610,7 +633,8 @@ def plot(
         One of the kind's views (default the first): sweep ``harmonics``,
         ``amplitude``, ``forces``; trace ``both``, ``time``, ``spectrum``; branch
         ``harmonics``, ``amplitude``; study ``jumps``; accuracy ``errors``; measured and
-        fit ``auto``, ``harmonics``, ``amplitude``, ``jumps``.
+        fit ``auto``, ``harmonics``, ``amplitude``, ``jumps``; random ``psd``, ``pdf``,
+        ``loss``.
     harmonics : sequence of int, optional
         Draw only these harmonics (sweep, branch).
     sigmas : sequence of float, optional

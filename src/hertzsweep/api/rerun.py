@@ -20,7 +20,16 @@ from typing import Any
 
 from ..core.config import Scene, apply_overrides, from_command_line, scene_from_dict
 from ..errors import ConfigError, HertzsweepError
-from .runs import Progress, Run, check_trace, run_accuracy, run_branch, run_sweep, run_trace
+from .runs import (
+    Progress,
+    Run,
+    check_trace,
+    run_accuracy,
+    run_branch,
+    run_random,
+    run_sweep,
+    run_trace,
+)
 
 
 def json_attribute(attributes: Mapping[str, Any], name: str, path: str) -> dict[str, Any]:
@@ -81,6 +90,10 @@ def _branch(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any
     return run_branch(scene, progress)
 
 
+def _random(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
+    return run_random(scene, progress)
+
+
 def _accuracy(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
     """The ladder that ran (its settings, reference last) on the scene, with its
     Richardson partner (the reference at half its steps, when it ran) and the scene's own
@@ -105,12 +118,13 @@ RUNNERS: dict[str, Runner] = {  # kind -> how to run its driver from command_jso
     "trace": _trace,
     "branch": _branch,
     "accuracy": _accuracy,
+    "random": _random,
 }
 
 
 # --------------------------------------------------------------------------- studies
 def study_of(config: dict[str, Any], overrides: Mapping[str, Any], source: str) -> Any:
-    """The study of a study dataset's ``config_json`` (``kind``, ``split_sigma``,
+    """The study of a study dataset's ``config_json`` (``kind``, ``split_sigma``, ``split_rms``,
     ``grid`` and the resolved base ``scene``), the overrides applied to its base scene."""
     from ..drivers.study import GridAxis, Study, dimension_name
     from ..output.kinds import STUDY_KINDS
@@ -120,13 +134,21 @@ def study_of(config: dict[str, Any], overrides: Mapping[str, Any], source: str) 
         study_kind = config["kind"]
         grid = config["grid"]
         split_sigma = bool(config.get("split_sigma", False))
+        split_rms = bool(config.get("split_rms", False))
     except (KeyError, TypeError) as exc:
         raise HertzsweepError(f"{source}: not a study's configuration ({exc})") from None
     if study_kind not in STUDY_KINDS:
         raise ConfigError(source, "kind", f"expected one of {', '.join(STUDY_KINDS)}")
     scene_of(base, overrides, source)  # the base scene must be valid
     axes = tuple(GridAxis(key, dimension_name(key), tuple(values)) for key, values in grid.items())
-    return Study(source=source, kind=study_kind, base=base, grid=axes, split_sigma=split_sigma)
+    return Study(
+        source=source,
+        kind=study_kind,
+        base=base,
+        grid=axes,
+        split_sigma=split_sigma,
+        split_rms=split_rms,
+    )
 
 
 def what_to_rerun(attributes: Mapping[str, Any], path: str) -> tuple[str, Runner | None]:

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from .. import __version__
-from ..core.checks import check_record, check_scene
+from ..core.checks import check_record, check_scene, require_excitation
 from ..core.config import Scene
 from ..core.model import check_stability
 from .progress import progress_bar
@@ -151,6 +151,7 @@ def run_sweep(scene: Scene, progress: Progress = False, history: str | None = No
     """
     from ..drivers.sweep import dwell_count
 
+    require_excitation(scene, "sine", "sweep")
     check_scene(scene)
     sweep = kind("sweep")
     with meter(dwell_count(scene), "sweep", progress) as bar:
@@ -172,6 +173,7 @@ def run_trace(
     record stream the command line writes a long record into as it is integrated."""
     from ..drivers.trace import trace_count
 
+    require_excitation(scene, "sine", "trace")
     check_scene(scene)
     check_trace(scene, periods, samples_per_period)
     trace = kind("trace")
@@ -207,6 +209,37 @@ def partial_sweep(exc: BaseException, scene: Scene) -> tuple[Any, int, int] | No
     return ds, dwells, int(result.finished.sum())
 
 
+def run_random(scene: Scene, progress: Progress = False, history: str | None = None) -> Run:
+    """Random excitation (``hertzsweep random``): every level's realisations in lockstep,
+    the spectra, statistics and contact-loss figures of N/F_s.
+
+    Raises
+    ------
+    Interrupted
+        Stopped by a signal (a ``KeyboardInterrupt``); ``exc.partial`` holds the
+        statistics of the segments finished.
+    """
+    from ..drivers.random import step_count
+
+    require_excitation(scene, "random", "random")
+    check_scene(scene)
+    random = kind("random")
+    with meter(step_count(scene), "random", progress, unit="step") as bar:
+        result = random.run(scene, bar)
+    return Run(random, scene, result, random.build(result, scene, history))
+
+
+def partial_random(exc: BaseException, scene: Scene) -> tuple[Any, int] | None:
+    """The dataset of an interrupted random run's finished segments (attribute
+    ``complete = 0``) and their number; None when no measured segment finished."""
+    result = getattr(exc, "partial", None)
+    if result is None or not result.segments:
+        return None
+    ds = kind("random").build(result, scene)
+    ds.attrs["complete"] = 0
+    return ds, int(result.segments)
+
+
 def check_trace(
     scene: Scene, periods: int, samples_per_period: int | None, source: str = "trace"
 ) -> bool:
@@ -219,6 +252,7 @@ def run_branch(scene: Scene, progress: Progress = False, history: str | None = N
     """Periodic orbits by shooting and continuation (``hertzsweep branch``)."""
     from ..drivers.continuation import progress_total
 
+    require_excitation(scene, "sine", "branch")
     check_scene(scene)
     branch = kind("branch")
     with meter(progress_total(scene), "branch", progress, unit="%") as bar:
@@ -228,6 +262,7 @@ def run_branch(scene: Scene, progress: Progress = False, history: str | None = N
 
 def check_accuracy(scene: Scene) -> None:
     """The checks of an accuracy run: the scene's, and its own setting stable."""
+    require_excitation(scene, "sine", "accuracy")
     check_scene(scene)
     check_stability(scene)
 

@@ -69,11 +69,22 @@ def validate_command(scene_file: str, overrides: tuple[str, ...]) -> None:
     steps = scene.solver.steps_per_period
     limit = figures.stability_limit
     mode = ", omega_max of the ball's own mode" if scene.model.kind == "ball" else ""
+    trajectories = f"{figures.trajectories} trajector{'y' if figures.trajectories == 1 else 'ies'}"
+    if scene.excitation.kind == "random":
+        low, high = scene.excitation.band
+        what = (
+            f"random: {len(scene.excitation.rms)} rms x {scene.random.realisations} "
+            f"realisation(s) ({trajectories} of {scene.random.transient_periods} + "
+            f"{scene.random.duration_periods} periods); band {low:g} .. {high:g}"
+        )
+    else:
+        what = (
+            f"{len(scene.sweep.directions)} direction(s) x {len(scene.excitation.sigma)} "
+            f"sigma x {figures.points} frequencies ({trajectories} of "
+            f"{figures.periods_per_dwell} periods a dwell)"
+        )
     click.echo(
-        f"{scene_file}: ok: {len(scene.sweep.directions)} direction(s) x "
-        f"{len(scene.excitation.sigma)} sigma x {figures.points} frequencies "
-        f"({figures.trajectories} trajector{'y' if figures.trajectories == 1 else 'ies'} of "
-        f"{figures.periods_per_dwell} periods a dwell); "
+        f"{scene_file}: ok: {what}; "
         f"steps_per_period {steps} is {figures.stability_margin:.1f}x the stability limit "
         f"{limit:.1f} of {scene.solver.method} (h omega_max < "
         f"{STABILITY[scene.solver.method]:.3g}{mode}); {figures.steps:.3g} integration steps "

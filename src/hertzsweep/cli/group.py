@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {  # name -> (module in hertzsweep.cli, h
     "rig": ("commands", "Derived constants of a rig, or of a scene's rig."),
     "validate": ("commands", "Check a scene: exit 0, or one line naming file, key, reason."),
     "sweep": ("sweep", "Stepped-sine sweeps, up and/or down, for every sigma."),
+    "random": ("random", "Random excitation: spectra, statistics, contact loss of N/F_s."),
     "trace": ("trace", "Settled time history at one frequency, its spectrum, its flights."),
     "branch": ("branch", "Periodic orbits by shooting and continuation: stability, folds."),
     "study": ("study", "A grid of scenes on a local pool or a Dask cluster."),

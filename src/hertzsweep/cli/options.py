@@ -184,3 +184,27 @@ def report(run: Run, output: str) -> None:
     warning = run.warning()
     if warning:
         click.echo(f"hertzsweep: warning: {warning}", err=True)
+
+
+def keep_partial(ds: Any, scene: Scene, output: str, what: str, kept: str) -> None:
+    """Write an interrupted run's finished work ``ds`` to ``OUT.partial.nc`` and say so on
+    stderr (``kept``: what it holds, e.g. "12 finished dwell(s)"); the output itself stays
+    absent.
+
+    The partial file is written as the output is: not over one of the run's inputs, nor
+    over a link, a folder or a special file, atomically. When it cannot be written, one
+    line says why (``what``: "the finished dwells") and the run still ends as
+    interrupted."""
+    from pathlib import Path
+
+    from ..errors import HertzsweepError
+
+    partial = Path(output).with_suffix(".partial.nc")
+    try:
+        files.check_not_input(partial, scene.inputs)
+        files.write(ds, partial)
+    except (OSError, HertzsweepError) as error:
+        where = f"{error.filename}: {error.strerror}" if isinstance(error, OSError) else error
+        click.echo(f"hertzsweep: cannot keep {what}: {where}", err=True)
+        return
+    click.echo(f"kept {kept} in {partial}", err=True)

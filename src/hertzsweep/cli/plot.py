@@ -63,9 +63,9 @@ def plot_command(
     wrap_phase: bool,
     dpi: float,
 ) -> None:
-    """The paper-style figure of a sweep, trace, branch, study or accuracy dataset,
-    picked by its hertzsweep_kind attribute. The file's metadata name the dataset, this
-    command and the version."""
+    """The paper-style figure of a sweep, trace, branch, study, accuracy, measured, fit or
+    random dataset, picked by its hertzsweep_kind attribute. The file's metadata name the
+    dataset, this command and the version."""
     from ..api import plot
     from ..api.files import figure_format, write_figure
 

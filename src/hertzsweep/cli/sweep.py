@@ -2,12 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import click
-
-from ..api import files
-from ..errors import HertzsweepError, Interrupted
+from ..errors import Interrupted
 from . import options
 from .group import cli
 
@@ -54,15 +49,5 @@ def keep_partial(exc: Interrupted, scene, output: str) -> None:
     if kept is None:
         return
     ds, dwells, whole = kept
-    partial = Path(output).with_suffix(".partial.nc")
-    try:
-        files.check_not_input(partial, scene.inputs)
-        files.write(ds, partial)
-    except (OSError, HertzsweepError) as error:
-        where = f"{error.filename}: {error.strerror}" if isinstance(error, OSError) else error
-        click.echo(f"hertzsweep: cannot keep the finished dwells: {where}", err=True)
-        return
-    click.echo(
-        f"kept {dwells} finished dwell(s), {whole} whole sweep(s), in {partial}",
-        err=True,
-    )
+    held = f"{dwells} finished dwell(s), {whole} whole sweep(s),"
+    options.keep_partial(ds, scene, output, "the finished dwells", held)

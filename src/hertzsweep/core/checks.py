@@ -15,6 +15,12 @@ raises a :class:`~hertzsweep.errors.ConfigError` naming the file and the key:
 - its result arrays are within :data:`MEMORY_BUDGET`;
 - the time step is within the stability limit (:func:`hertzsweep.core.model.stability_limit`).
 
+A random scene (``excitation.kind = "random"``, :func:`preflight_random`) has no grid nor
+lock-in: its band lies below the step's Nyquist frequency and holds a line of the record,
+its time step is within the stability limit at the largest force the linear response
+suggests, and its steps and memory (the forcing of every realisation included) are within
+the same budgets.
+
 :func:`check_record` adds the record of ``hertzsweep trace`` (its memory and steps).
 
 This module imports neither numba nor xarray: ``validate`` stays light.
@@ -33,9 +39,11 @@ import numpy as np
 
 from ..errors import ConfigError
 from .ballmode import check_periods, has_ball_mode
+from .ballmodel import BallModel
 from .config import (
     DampingConfig,
     ExcitationConfig,
+    RandomConfig,
     RigConfig,
     Scene,
     SolverConfig,
@@ -44,7 +52,7 @@ from .config import (
     load_scene,
     rig_key_furthest,
 )
-from .model import omega_max, stability_limit, stability_reason
+from .model import STABILITY, omega_max, stability_limit, stability_reason
 from .rig import RigConstants, derive
 
 # The most frequencies a grid may have. The paper's finest sweeps have a few hundred;
@@ -96,11 +104,16 @@ RIG_LABELS = {  # derived constant -> its name in errors
 class Figures:
     """What a run of the scene takes, as :func:`preflight` found it.
 
+    A random scene (:func:`preflight_random`) is one "frequency" (``points = 1``) whose
+    ``trajectories`` are levels x realisations, each integrating one record of
+    ``periods_per_dwell = transient_periods + duration_periods`` periods.
+
     Attributes
     ----------
-    points : frequencies of the grid.
-    trajectories : directions x sigma.
-    periods_per_dwell : settling (``max_settle_periods`` for ``"auto"``) + measuring.
+    points : frequencies of the grid (1 for a random scene).
+    trajectories : directions x sigma (levels ``rms`` x realisations for a random scene).
+    periods_per_dwell : settling (``max_settle_periods`` for ``"auto"``) + measuring (the
+        record, transient included, for a random scene).
     steps : integration steps of the whole run, at most (``"auto"`` may settle sooner).
     max_steps : the budget of steps (``solver.max_steps`` or :data:`DEFAULT_MAX_STEPS`).
     memory : [bytes] the estimate of the results' memory.
@@ -369,6 +382,291 @@ def _duration(steps: float, seconds_per_step: float = 9e-9) -> str:
     return f"{seconds / 86400:.3g} days"
 
 
+# --------------------------------------------------------------------------- random
+DEFAULT_RANDOM = RandomConfig()
+DEFAULT_LEVELS = 2  # the SPEC's random scene: rms = [0.005, 0.01]
+# The largest N/F_s of a random run is estimated as 1 + PEAK_FACTOR x the linear response's
+# RMS, the histogram range of the random run: a Gaussian passes 10 standard deviations with
+# probability 1.5e-23 a sample, and the force enters the limit only as force^(1/6).
+PEAK_FACTOR = 10.0
+# The damping ratio the force estimate is floored at, as model.force_bound floors it: below
+# it the linear resonance grows beyond what a finite record reaches.
+ZETA_FLOOR = 1e-3
+# Floats held per sample of the realisation whose forcing is being generated: its complex
+# spectrum (2 floats per 2 samples), the inverse FFT's output and its work copy.
+FORCING_WORKSPACE = 3
+# Per sample of a Welch segment and trajectory: N/F_s, its windowed copy and its rFFT
+# (half as many complex bins); per sample and realisation, the same for the forcing.
+SEGMENT_FLOATS = 3
+# Per Welch bin and trajectory: the accumulated S_NN, S_ff and S_fN (complex), and the
+# per-realisation spectra formed from them (psd, excitation_psd, frf_amplitude, frf_phase,
+# coherence) before the mean over realisations.
+BIN_ACCUMULATORS = 4 + 5
+# Per Welch bin and level in the dataset: psd, excitation_psd, frf_amplitude, frf_phase,
+# coherence, each with its standard error.
+BIN_RESULTS = 2 * 5
+# Per trajectory: the moment sums (5), min, max, the contact-loss and flight counters (4)
+# and its flight in progress (2); per level in the dataset: 13 statistics and their
+# standard errors.
+SCALAR_ACCUMULATORS = 13
+SCALAR_RESULTS = 2 * 13
+TRACE_COLUMNS = 4  # a trace sample: q, q', N/F_s and the contact flag (as hertzsweep trace)
+
+
+def record_periods(scene: Scene) -> int:
+    """The periods of a random scene's record: ``transient_periods + duration_periods``."""
+    return scene.random.transient_periods + scene.random.duration_periods
+
+
+def random_trajectories(scene: Scene) -> int:
+    """The trajectories of a random run: levels (``excitation.rms``) x realisations."""
+    return len(scene.excitation.rms) * scene.random.realisations
+
+
+def samples_per_step(scene: Scene) -> int:
+    """Forcing samples a step: 2 for rk4 (its half steps), else 1."""
+    return 2 if scene.solver.method == "rk4" else 1
+
+
+def check_band(scene: Scene) -> None:
+    """The band lies below the step's Nyquist frequency ``w = steps_per_period / 2`` (the
+    step is ``h = 2 pi / N`` in tau) and holds at least one line ``k / P`` of the record of
+    P periods (:func:`hertzsweep.core.excitation.band_lines`, counted without building
+    them); refused naming ``excitation.band``."""
+    low, high = scene.excitation.band
+    steps = scene.solver.steps_per_period
+    if not high < steps / 2:
+        raise ConfigError(
+            scene.source,
+            "excitation.band",
+            f"w_high = {high:g} is at or above the step's Nyquist frequency steps_per_period "
+            f"/ 2 = {steps / 2:g}: the band must lie in (0, {steps / 2:g}) (raise "
+            f"solver.steps_per_period above {2 * high:g})",
+        )
+    periods = record_periods(scene)
+    k = max(math.floor(low * periods) - 1, 1)  # the first line at or above w_low, found
+    while k / periods < low:  # as band_lines's definition (k / P in floating point) says
+        k += 1
+    if not k / periods < high:
+        raise ConfigError(
+            scene.source,
+            "excitation.band",
+            f"{low:g} .. {high:g} holds no line k / P of the record of P = {periods} periods "
+            f"(lines 1/{periods} = {1 / periods:.3g} apart): widen the band",
+        )
+
+
+def random_force_bound(scene: Scene) -> float:
+    """An estimate of the largest N/F_s of a random run: ``1 + PEAK_FACTOR x rms x
+    sqrt(V)``, rms the largest level and V the whole axis' integral of ``|H(w)|^2`` over
+    ``w_high - w_low``, ``pi (1 + 4 zeta^2) / (4 zeta (w_high - w_low))`` (zeta floored
+    at :data:`ZETA_FLOOR`): an upper bound of the band's variance
+    (:func:`hertzsweep.core.excitation.linear_response_variance`) in closed form, so the
+    preflight needs no quadrature (nor scipy). Like
+    :func:`hertzsweep.core.model.force_bound`, an estimate: the kernels check the
+    compression reached at every step."""
+    low, high = scene.excitation.band
+    zeta = max(scene.damping.ratio, ZETA_FLOOR)
+    variance = math.pi * (1.0 + 4.0 * zeta * zeta) / (4.0 * zeta * (high - low))
+    return 1.0 + PEAK_FACTOR * max(scene.excitation.rms) * math.sqrt(variance)
+
+
+def random_stability_limit(scene: Scene) -> float:
+    """The fewest steps per period that keep ``h omega_max < b`` over a random run
+    (:data:`hertzsweep.core.model.STABILITY`): the sine's limit
+    (:func:`hertzsweep.core.model.stability_limit`) at ``w = 1``, since a random run's
+    step is ``h = 2 pi / N`` whatever the band, with ``omega_max`` at the force of
+    :func:`random_force_bound` (``N^(1/6)``, or the ball's own mode for the ball model)."""
+    force = random_force_bound(scene)
+    if scene.model.kind == "ball":
+        om = BallModel.of(scene).stability_frequency(force)
+    else:
+        om = force ** (1.0 / 6.0)
+    return 2.0 * math.pi * om / STABILITY[scene.solver.method]
+
+
+def check_random_stability(scene: Scene) -> float:
+    """:func:`random_stability_limit`, which ``steps_per_period`` must exceed; a limit
+    beyond :data:`MAX_STEPS_PER_PERIOD` names ``excitation.rms``, one at or above
+    ``steps_per_period`` names ``solver.steps_per_period``."""
+    limit = random_stability_limit(scene)
+    steps = scene.solver.steps_per_period
+    rms = max(scene.excitation.rms)
+    if not limit < MAX_STEPS_PER_PERIOD:
+        raise ConfigError(
+            scene.source,
+            "excitation.rms",
+            f"the stability limit {limit:.3g} steps per period (rms = {rms:g}) is beyond the "
+            f"largest steps_per_period {MAX_STEPS_PER_PERIOD}",
+        )
+    if not steps > limit:
+        of = "the ball's own mode, " if scene.model.kind == "ball" else ""
+        raise ConfigError(
+            scene.source,
+            "solver.steps_per_period",
+            f"{steps} is at or below the stability limit {limit:.1f} of {of}"
+            f"{scene.solver.method} (h omega_max >= {STABILITY[scene.solver.method]:.3g} at "
+            f"the largest force {random_force_bound(scene):.3g} F_s the level rms = {rms:g} "
+            f"is estimated to reach); use at least {math.floor(limit) + 1}",
+        )
+    return limit
+
+
+def check_random_steps(scene: Scene) -> int:
+    """The integration steps of a random run: realisations x levels x (transient +
+    duration) periods x ``steps_per_period`` (exact integers); refused beyond
+    :func:`max_steps`, naming the factor furthest above the SPEC's random scene's."""
+    random = scene.random
+    levels = len(scene.excitation.rms)
+    periods = record_periods(scene)
+    steps_per_period = scene.solver.steps_per_period
+    total = random.realisations * levels * periods * steps_per_period
+    budget = max_steps(scene)
+    if total > budget:
+        key = _largest_factor(
+            {
+                "random.realisations": (random.realisations, DEFAULT_RANDOM.realisations),
+                "excitation.rms": (levels, DEFAULT_LEVELS),
+                "random.duration_periods": (
+                    random.duration_periods,
+                    DEFAULT_RANDOM.duration_periods,
+                ),
+                "random.transient_periods": (
+                    random.transient_periods,
+                    DEFAULT_RANDOM.transient_periods,
+                ),
+                "solver.steps_per_period": (steps_per_period, DEFAULT_SOLVER.steps_per_period),
+            },
+        )
+        raise ConfigError(
+            scene.source,
+            key,
+            f"the run would take {total:.3g} integration steps ({random.realisations} "
+            f"realisations x {levels} levels x {periods} periods x {steps_per_period} steps), "
+            f"beyond the budget solver.max_steps = {budget:.3g} (about "
+            f"{_duration(budget)} at 9 ns a step); raise solver.max_steps to allow it",
+        )
+    return total
+
+
+def random_memory_terms(scene: Scene) -> list[tuple[int, str, dict[str, tuple[float, float]]]]:
+    """The parts of :func:`random_bytes`: ``(bytes, what, {key: (value, default)})``, the
+    keys that set each part with their values and the SPEC's random scene's."""
+    random = scene.random
+    levels = len(scene.excitation.rms)
+    realisations = random.realisations
+    trajectories = levels * realisations
+    steps = scene.solver.steps_per_period
+    record = samples_per_step(scene) * steps * record_periods(scene)  # samples a realisation
+    segment = random.segment_periods * steps  # samples a Welch segment
+    bins = segment // 2 + 1  # its rFFT's bins (and the frequency coordinates, 2 a bin)
+    forcing = (realisations + FORCING_WORKSPACE) * record
+    buffers = SEGMENT_FLOATS * segment * (trajectories + realisations)
+    spectra = (BIN_ACCUMULATORS * trajectories + RESULT_COPIES * (BIN_RESULTS * levels + 2)) * bins
+    histograms = (trajectories + RESULT_COPIES * (2 * levels + 1)) * random.force_bins
+    statistics = SCALAR_ACCUMULATORS * trajectories + RESULT_COPIES * SCALAR_RESULTS * levels
+    trace = RESULT_COPIES * TRACE_COLUMNS * levels * random.trace_periods * steps
+    default = DEFAULT_RANDOM
+    by_realisations = {"random.realisations": (realisations, default.realisations)}
+    by_levels = {"excitation.rms": (levels, DEFAULT_LEVELS)}
+    by_steps = {"solver.steps_per_period": (steps, DEFAULT_SOLVER.steps_per_period)}
+    return [
+        (
+            forcing * FLOAT,
+            "the forcing of every realisation",
+            {
+                **by_realisations,
+                "random.duration_periods": (random.duration_periods, default.duration_periods),
+                **by_steps,
+            },
+        ),
+        (
+            (buffers + spectra) * FLOAT,
+            "the Welch segments and spectra",
+            {
+                "random.segment_periods": (random.segment_periods, default.segment_periods),
+                **by_realisations,
+                **by_levels,
+                **by_steps,
+            },
+        ),
+        (
+            (histograms + statistics) * FLOAT,
+            "the histograms and statistics",
+            {
+                "random.force_bins": (random.force_bins, default.force_bins),
+                **by_realisations,
+                **by_levels,
+            },
+        ),
+        (
+            trace * FLOAT,
+            "the trace",
+            {"random.trace_periods": (random.trace_periods, 1)},  # default 0: none
+        ),
+    ]
+
+
+def random_bytes(scene: Scene) -> int:
+    """An estimate of the memory of a random run: the forcing of every realisation (``m N
+    P`` floats each, m = 2 for rk4's half steps) and the workspace generating one; per
+    trajectory the Welch segment's buffers, the accumulated spectra and the histogram and
+    moments; per level the dataset's spectra, histogram and statistics with their standard
+    errors, and the trace, held :data:`RESULT_COPIES` times."""
+    return sum(nbytes for nbytes, _, _ in random_memory_terms(scene))
+
+
+def check_random_memory(scene: Scene) -> int:
+    """:func:`random_bytes`, refused beyond :data:`MEMORY_BUDGET` naming, in its largest
+    part, the key furthest above the SPEC's random scene's."""
+    terms = random_memory_terms(scene)
+    memory = sum(nbytes for nbytes, _, _ in terms)
+    if memory > MEMORY_BUDGET:
+        nbytes, what, factors = max(terms, key=lambda term: term[0])
+        raise ConfigError(
+            scene.source,
+            _largest_factor(factors),
+            f"the run would hold {format_size(memory)} ({format_size(nbytes)} of it "
+            f"{what}: {scene.random.realisations} realisations x "
+            f"{len(scene.excitation.rms)} levels), beyond the memory budget "
+            f"{format_size(MEMORY_BUDGET)}",
+        )
+    return memory
+
+
+def preflight_random(scene: Scene) -> Figures:
+    """Every check a random run makes on its scene, before any work: the rig's
+    constants, ``steps_per_period`` at most :data:`MAX_STEPS_PER_PERIOD`, the band
+    (:func:`check_band`), the stability limit (:func:`check_random_stability`), the
+    steps (:func:`check_random_steps`) and the memory (:func:`check_random_memory`).
+    The sweep's grid and the lock-in's harmonics are not used and not checked.
+
+    Returns
+    -------
+    Figures
+        ``points = 1``; ``trajectories``: levels x realisations; ``periods_per_dwell``:
+        the record (transient + duration); the steps and memory against their budgets,
+        the stability limit and margin.
+    """
+    check_rig(scene.rig, rig_source(scene))
+    check_steps_per_period(scene)
+    check_band(scene)
+    limit = check_random_stability(scene)
+    steps = check_random_steps(scene)
+    memory = check_random_memory(scene)
+    return Figures(
+        points=1,
+        trajectories=random_trajectories(scene),
+        periods_per_dwell=record_periods(scene),
+        steps=steps,
+        max_steps=max_steps(scene),
+        memory=memory,
+        memory_budget=MEMORY_BUDGET,
+        stability_limit=limit,
+        stability_margin=scene.solver.steps_per_period / limit,
+    )
+
+
 # --------------------------------------------------------------------------- preflight
 def preflight(scene: Scene) -> Figures:
     """Every check a run of the scene makes, before any work (the module docstring).
@@ -384,7 +682,11 @@ def preflight(scene: Scene) -> Figures:
     ConfigError
         The first check that fails, naming the file (the rig's file for the rig's
         constants) and the key.
+
+    A random scene has its own checks (:func:`preflight_random`).
     """
+    if scene.is_random:
+        return preflight_random(scene)
     check_rig(scene.rig, rig_source(scene))
     grid = check_grid(scene)
     check_steps_per_period(scene)
@@ -412,6 +714,24 @@ def load_checked_scene(
     texts or a ``{key: value}`` mapping) and run :func:`check_scene` on it."""
     scene = load_scene(path, overrides)
     return scene, check_scene(scene)
+
+
+RUNS_OF = {"sine": "sweep, trace, branch and accuracy", "random": "random"}  # commands by kind
+
+
+def require_excitation(scene: Scene, kind: str, command: str) -> None:
+    """Refuse a scene whose excitation is not ``kind`` for ``command`` (a random scene
+    runs with ``hertzsweep random``, a sine scene with the others).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``excitation.kind``.
+    """
+    given = scene.excitation.kind
+    if given != kind:
+        reason = f"{command} runs a {kind} excitation; a {given} scene runs with {RUNS_OF[given]}"
+        raise ConfigError(scene.source, "excitation.kind", reason)
 
 
 def check_scene(scene: Scene) -> Figures:
@@ -526,9 +846,18 @@ __all__ = [
     "check_steps_per_period",
     "check_stability_limit",
     "check_steps",
+    "check_band",
+    "check_random_memory",
+    "check_random_stability",
+    "check_random_steps",
+    "preflight_random",
+    "random_bytes",
+    "random_force_bound",
+    "random_stability_limit",
     "format_size",
     "grid_count",
     "check_scene",
+    "require_excitation",
     "load_checked_scene",
     "preflight",
     "rig_source",

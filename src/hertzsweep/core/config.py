@@ -2,9 +2,11 @@
 
 A *rig* file holds only ``[rig]``. A *scene* file names a rig (``rig = "path.toml"``,
 relative to the scene) or holds an inline ``[rig]`` table, plus ``[damping]``,
-``[excitation]``, ``[sweep]``, ``[solver]`` and ``[lockin]``. Every key but the
-rig's has a default (the SPEC's). Unknown keys, wrong types and values out of range
-raise :class:`~hertzsweep.errors.ConfigError` naming the file, the key and the reason.
+``[excitation]``, ``[sweep]``, ``[solver]``, ``[lockin]``, ``[model]`` and ``[random]``
+(the random excitation's run, used by a scene of ``excitation.kind = "random"``). Every
+key but the rig's has a default (the SPEC's). Unknown keys, wrong types and values out
+of range raise :class:`~hertzsweep.errors.ConfigError` naming the file, the key and the
+reason.
 
 Overrides ``table.key=value`` (TOML value syntax; a bare word is taken as a string)
 are applied to the raw tables before validation, so they are checked like the file.
@@ -34,6 +36,7 @@ DIRECTIONS = ("up", "down")
 STEADY_STATE_METHODS = ("settle", "shooting")
 SOLVER_METHODS = ("central-difference", "rk4")  # hertzsweep.kernels.methods.METHODS
 MODEL_KINDS = ("single", "ball")  # hertzsweep.kernels.methods.MODELS
+EXCITATION_KINDS = ("sine", "random")  # stepped sine (sweep) or band-limited Gaussian noise
 # The largest input file (scene, rig, study) read: the largest shipped file is under 2 kB
 # and a study's grid of a thousand values is under 20 kB, so 1 MiB leaves room for any
 # real file while a wrong path (a log, an image, a disk image) is refused before it is read.
@@ -91,9 +94,21 @@ class DampingConfig:
 
 @dataclass(frozen=True)
 class ExcitationConfig:
-    """Input levels sigma = F/F_s (a dimension of every result)."""
+    """The input: a sine of levels sigma = F/F_s, or band-limited Gaussian noise.
+
+    ``kind = "sine"`` (the default) drives ``1 + sigma sin(w tau)`` (eq. 8); ``sigma`` is a
+    dimension of every result. ``kind = "random"`` drives ``1 + rms g(tau)``, g the
+    unit-variance Gaussian process of :mod:`hertzsweep.core.excitation`, with a flat
+    one-sided PSD ``S_f = rms^2 / (w_high - w_low)`` per unit w on ``band``; ``rms`` is a
+    dimension of its results and ``seed`` fixes the process. A sine scene ignores ``rms``,
+    ``band`` and ``seed``, a random scene ``sigma``.
+    """
 
     sigma: tuple[float, ...] = (0.006, 0.01)
+    kind: str = "sine"
+    rms: tuple[float, ...] = ()
+    band: tuple[float, float] = (0.2, 3.0)
+    seed: int = 0
 
 
 @dataclass(frozen=True)
@@ -147,6 +162,24 @@ class ModelConfig:
 
 
 @dataclass(frozen=True)
+class RandomConfig:
+    """The run of a random excitation (``excitation.kind = "random"``).
+
+    Lengths are in periods of the linearised natural frequency (``2 pi`` in tau, of
+    ``solver.steps_per_period`` steps). Each realisation integrates ``transient_periods``
+    (discarded) then ``duration_periods`` (measured) of its own forcing, read in Welch
+    segments of ``segment_periods`` (the PSD's resolution ``1 / segment_periods`` in w).
+    """
+
+    realisations: int = 16
+    duration_periods: int = 2000
+    transient_periods: int = 200
+    segment_periods: int = 64
+    force_bins: int = 200
+    trace_periods: int = 0
+
+
+@dataclass(frozen=True)
 class LockinConfig:
     """Harmonics of N/F_s read by the lock-in amplifier."""
 
@@ -164,6 +197,7 @@ class Scene:
     solver: SolverConfig = SolverConfig()
     lockin: LockinConfig = LockinConfig()
     model: ModelConfig = ModelConfig()
+    random: RandomConfig = RandomConfig()
     source: str = "<scene>"
     # the files the scene was read from (the scene, then its rig file if any): an output
     # path must not be one of them; not part of the scene's value
@@ -223,7 +257,7 @@ class Scene:
             A key of no known table, or a value the key does not accept (named under
             ``--set``, as on the command line).
         """
-        raw: dict[str, Any] = self.to_dict()
+        raw: dict[str, Any] = self._tables(random=True)  # a sine scene keeps its random keys
         keys = apply_overrides(raw, overrides)
         try:
             scene = scene_from_dict(raw, source=self.source)
@@ -231,12 +265,23 @@ class Scene:
             raise from_command_line(exc, keys) from None
         return replace(scene, inputs=self.inputs, overridden=self.overridden | keys)
 
+    @property
+    def is_random(self) -> bool:
+        """Whether the scene drives a random excitation (``excitation.kind = "random"``)."""
+        return self.excitation.kind == "random"
+
     def attributes(self) -> dict[str, Any]:
-        """Every resolved value as flat ``table_key`` attributes (netCDF-friendly)."""
+        """Every resolved value as flat ``table_key`` attributes (netCDF-friendly).
+
+        A sine scene leaves out the random excitation's keys (:data:`RANDOM_KEYS`:
+        ``excitation_kind``, ``excitation_rms``, ``excitation_band``, ``excitation_seed``
+        and the ``[random]`` table), so that its attributes are those of a scene written
+        before random excitation existed; a random scene has every table.
+        """
         out: dict[str, Any] = {}
-        for table in ("rig", "damping", "excitation", "sweep", "solver", "lockin", "model"):
+        for table in CLASSES:
             for key, value in asdict(getattr(self, table)).items():
-                if (table, key) in BUDGET_KEYS:
+                if (table, key) in BUDGET_KEYS or not self._shows(table, key):
                     continue
                 bare = table == "rig" or (table, key) == ("solver", "steps_per_period")
                 name = key if bare else f"{table}_{key}"  # SPEC: damping_ratio, steps_per_period
@@ -256,15 +301,32 @@ class Scene:
 
         Every value is resolved (the rig's default static load and ball mass included);
         tuples become lists, ``settle_periods = None`` becomes ``"auto"``, and an optional
-        value left unset (None) is left out, as it would be from a TOML file.
+        value left unset (None) is left out, as it would be from a TOML file. A sine scene
+        leaves out the random excitation's keys and the ``[random]`` table, as
+        :meth:`attributes` does.
         """
+        return self._tables(random=self.is_random)
+
+    def _shows(self, table: str, key: str, random: bool | None = None) -> bool:
+        """Whether ``table.key`` is among the scene's values: every key of a random scene
+        (or with ``random``), every key but :data:`RANDOM_KEYS` of a sine scene."""
+        if random is None:
+            random = self.is_random
+        return random or not (table in RANDOM_TABLES or (table, key) in RANDOM_KEYS)
+
+    def _tables(self, random: bool) -> dict[str, dict[str, Any]]:
+        """:meth:`to_dict`, the random excitation's keys included when ``random``."""
         tables: dict[str, dict[str, Any]] = {}
         for name in CLASSES:
+            if not random and name in RANDOM_TABLES:
+                continue
             table: dict[str, Any] = {}
             for key, value in asdict(getattr(self, name)).items():
+                if not self._shows(name, key, random):
+                    continue
                 if (name, key) == ("sweep", "settle_periods") and value is None:
                     value = "auto"
-                if value is None:
+                if value is None or value == ():  # unset (a sine scene's empty rms)
                     continue
                 table[key] = list(value) if isinstance(value, tuple) else value
             tables[name] = table
@@ -361,6 +423,39 @@ def _harmonics(source: str, key: str, value: Any) -> tuple[int, ...]:
     return tuple(sorted(out))
 
 
+def _non_negative_int(source: str, key: str, value: Any) -> int:
+    x = _integer(source, key, value)
+    if x < 0:
+        raise ConfigError(source, key, f"must be >= 0, got {value!r}")
+    return x
+
+
+MAX_SEED = 2**63 - 1  # a seed is kept as a netCDF int64 attribute
+
+
+def _seed(source: str, key: str, value: Any) -> int:
+    x = _non_negative_int(source, key, value)
+    if x > MAX_SEED:
+        raise ConfigError(source, key, f"must be at most 2**63 - 1, got {value!r}")
+    return x
+
+
+def _bin_count(source: str, key: str, value: Any) -> int:
+    x = _integer(source, key, value)
+    if x < 2:
+        raise ConfigError(source, key, f"must be at least 2, got {value!r}")
+    return x
+
+
+def _band(source: str, key: str, value: Any) -> tuple[float, float]:
+    if not isinstance(value, list) or len(value) != 2:
+        raise ConfigError(source, key, f"expected two numbers [w_low, w_high], got {value!r}")
+    low, high = (_number(source, key, v) for v in value)
+    if not 0.0 < low < high:
+        raise ConfigError(source, key, f"must satisfy 0 < w_low < w_high, got {value!r}")
+    return low, high
+
+
 def _fraction(source: str, key: str, value: Any) -> float:
     x = _number(source, key, value)
     if not 0.0 < x < 1.0:
@@ -387,7 +482,13 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "law": lambda s, k, v: _string(s, k, v, DAMPING_LAWS),
         "exponent": _non_negative,
     },
-    "excitation": {"sigma": _sigma_list},
+    "excitation": {
+        "sigma": _sigma_list,
+        "kind": lambda s, k, v: _string(s, k, v, EXCITATION_KINDS),
+        "rms": _sigma_list,  # the same rule as sigma: positive, finite, distinct (a dimension)
+        "band": _band,
+        "seed": _seed,
+    },
     "sweep": {
         "start": _positive,
         "stop": _positive,
@@ -407,6 +508,14 @@ SCHEMA: dict[str, dict[str, Check]] = {
     },
     "lockin": {"harmonics": _harmonics},
     "model": {"kind": lambda s, k, v: _string(s, k, v, MODEL_KINDS)},
+    "random": {
+        "realisations": _positive_int,
+        "duration_periods": _positive_int,
+        "transient_periods": _non_negative_int,
+        "segment_periods": _positive_int,
+        "force_bins": _bin_count,
+        "trace_periods": _non_negative_int,
+    },
 }
 REQUIRED_RIG_KEYS = ("ball_radius", "youngs_modulus", "poisson_ratio", "mass")
 BUDGET_KEYS = {("solver", "max_steps")}  # limits of a run, not settings of its result
@@ -418,7 +527,12 @@ CLASSES = {
     "solver": SolverConfig,
     "lockin": LockinConfig,
     "model": ModelConfig,
+    "random": RandomConfig,
 }
+# What only a random scene uses: left out of a sine scene's attributes() and to_dict(), so
+# that a sine scene's datasets are those it gave before random excitation existed
+RANDOM_KEYS = {("excitation", key) for key in ("kind", "rms", "band", "seed")}
+RANDOM_TABLES = ("random",)
 # What each key of SCHEMA sets, one line each ([unit] first where it has one): the manual's
 # configuration reference is generated from SCHEMA, the dataclasses' defaults and this table
 DESCRIPTIONS: dict[str, str] = {
@@ -459,6 +573,22 @@ DESCRIPTIONS: dict[str, str] = {
     "lockin.harmonics": "harmonic orders of N/F_s read by the lock-in",
     "model.kind": "single (one degree of freedom, eq. 1/8/11) or ball (the moving mass on the "
     "ball between two Hertz contacts)",
+    "excitation.kind": "sine (the stepped sine of sweep) or random (band-limited Gaussian noise "
+    "of hertzsweep random)",
+    "excitation.rms": "[1] RMS levels of f = F/F_s of a random scene, a number or a list (a "
+    "dimension of its results)",
+    "excitation.band": "[1] the band [w_low, w_high] of frequency ratios of a random scene: a flat "
+    "one-sided PSD rms^2 / (w_high - w_low) on it, none outside",
+    "excitation.seed": "the seed of the random excitation: it alone fixes every realisation",
+    "random.realisations": "independent realisations of the random excitation, run in lockstep",
+    "random.duration_periods": "periods measured by each realisation (2 pi in tau each, at the "
+    "linearised natural frequency)",
+    "random.transient_periods": "periods integrated and discarded before the measured ones",
+    "random.segment_periods": "periods of a Welch segment: the PSD's resolution is "
+    "1 / segment_periods in w",
+    "random.force_bins": "bins of the histogram of N/F_s (force_pdf)",
+    "random.trace_periods": "periods of time history kept from the first realisation's start "
+    "(0: none)",
 }
 
 
@@ -551,9 +681,49 @@ def scene_from_dict(
             "sweep.step",
             f"step {sweep.step} is larger than the range {sweep.stop - sweep.start:g}",
         )
+    check_random_table(source, tables["random"])
     scene = Scene(rig=rig, source=source, **tables)
     check_model(scene)
+    check_random(scene)
     return scene
+
+
+def check_random_table(source: str, random: RandomConfig) -> None:
+    """The lengths of a ``[random]`` table agree: the transient, a Welch segment and the
+    trace are no longer than the measured record (``duration_periods``)."""
+    duration = random.duration_periods
+    for key, value, what in (
+        ("transient_periods", random.transient_periods, "a transient"),
+        ("segment_periods", random.segment_periods, "a Welch segment"),
+        ("trace_periods", random.trace_periods, "a trace"),
+    ):
+        if value > duration:
+            raise ConfigError(
+                source,
+                f"random.{key}",
+                f"{what} of {value} periods is longer than the measured record "
+                f"random.duration_periods = {duration}",
+            )
+
+
+RANDOM_NEEDS: tuple[tuple[str, str, object, str], ...] = ()  # (table, key, value, why) a
+# random scene must keep: none, every model and method runs random excitation (the ball
+# model with the central difference, which check_model asks of it)
+
+
+def check_random(scene: Scene) -> None:
+    """Refuse a random scene (``excitation.kind = "random"``) without levels, or one the
+    random run cannot run yet (:data:`RANDOM_NEEDS`)."""
+    if not scene.is_random:
+        return
+    if not scene.excitation.rms:
+        raise ConfigError(
+            scene.source, "excitation.rms", "a random scene needs its levels: rms = [...] (> 0)"
+        )
+    for table, key, value, why in RANDOM_NEEDS:
+        given = getattr(getattr(scene, table), key)
+        if given != value:
+            raise ConfigError(scene.source, f"{table}.{key}", f"{why}, got {given!r}")
 
 
 BALL_MODEL_NEEDS = (  # (table, key, value) a "ball" scene must keep, and why

@@ -17,7 +17,11 @@ Every ratio is measured in the same run, never typed in:
   fixed-step RK4 written here, scipy's ``solve_ivp`` (DOP853, LSODA) and numbalsoda's
   DOP853 (when installed), each at the loosest setting of its ladder whose H1 is within
   1e-4, and within 1e-6, of a converged reference;
-- shooting-accelerated vs settled sweep (steps and time, the same jumps).
+- shooting-accelerated vs settled sweep (steps and time, the same jumps);
+- random excitation (:func:`random_figures`): ns per realisation-step of a random run of 16
+  realisations in lockstep (forcing, tallies and Welch spectra included; and of its
+  compiled steps alone), against the lockstep sweep's trajectory-step of 16 trajectories
+  measured in the same run; and the wall time of the paper's random scene.
 """
 
 from __future__ import annotations
@@ -747,6 +751,128 @@ def compare_with_settle(scene: Scene) -> dict:
     }
 
 
+# --------------------------------------------------------------------------- random
+RANDOM_LEVELS = (0.001, 0.01, 0.05, 0.15, 0.3)  # the paper scene's rms levels when
+# configs/paper/random.toml is missing: the linear regime (no loss) to frequent loss of
+# contact (loss fractions 0, 0, 5e-4, 0.22 and 0.53 of the time on the paper's rig)
+RANDOM_BAND = (0.2, 3.0)  # the issue's band of frequency ratios
+RANDOM_LOCKSTEP = 16  # realisations of the ns figure: the lockstep sweep's 16 trajectories
+
+
+def random_scene(
+    levels: tuple[float, ...] = RANDOM_LEVELS,
+    realisations: int | None = None,
+    duration_periods: int | None = None,
+    transient_periods: int | None = None,
+    zeta: float = 0.0045,
+) -> Scene:
+    """A random scene on the paper's rig, viscous damping: the issue's paper scene by
+    default (five levels x 16 realisations x 2000 measured + 200 transient periods, at the
+    default scene's steps per period and Welch segment: the [random] table's defaults)."""
+    run = {
+        "realisations": realisations,
+        "duration_periods": duration_periods,
+        "transient_periods": transient_periods,
+    }
+    return scene_from_dict(
+        {
+            "rig": dict(PAPER_RIG),
+            "damping": {"ratio": zeta, "law": "viscous"},
+            "excitation": {"kind": "random", "rms": list(levels), "band": list(RANDOM_BAND)},
+            "random": {key: value for key, value in run.items() if value is not None},
+        },
+        source="<bench>",
+    )
+
+
+def paper_random_scene() -> Scene:
+    """configs/paper/random.toml with the single model when the checkout has it, else
+    :func:`random_scene`'s default."""
+    path = CONFIGS / "paper" / "random.toml"
+    if not path.is_file():
+        return random_scene()
+    from ..core.config import load_scene
+
+    scene = load_scene(path)
+    return replace(scene, model=replace(scene.model, kind="single"))
+
+
+def _warm_random() -> None:
+    """Compile the random kernels (or load them from the cache) on a tiny run."""
+    from .random import run_random
+
+    run_random(random_scene((0.01,), 2, 64, 0))
+
+
+def random_costs(scene: Scene, repeats: int = 3) -> dict[str, float]:
+    """ns per trajectory-step of the scene's random run (best of ``repeats``): the whole
+    run (:func:`~hertzsweep.drivers.random.run_random`: the forcing table, the compiled
+    steps and tallies, the Welch spectra and the statistics); its compiled steps alone
+    (:func:`~hertzsweep.kernels.random.advance` and
+    :func:`~hertzsweep.kernels.random.accumulate` over every segment of the record, the
+    forcing table made beforehand); and the forcing table alone
+    (:func:`~hertzsweep.drivers.random.forcing_table`). The rest of the whole is the
+    Welch spectra and the statistics."""
+    from ..kernels import random as kernels
+    from .oscillator import model_law
+    from .random import Plan, forcing_table, run_random
+
+    _warm_random()
+    steps = run_random(scene).steps
+    whole = _best(lambda: run_random(scene), repeats)
+    plan = Plan.of(scene)
+    table = forcing_table(plan)
+    forcing = _best(lambda: forcing_table(plan), repeats)
+    inputs = kernels.inputs(
+        np.repeat(plan.rms, plan.realisations),
+        np.tile(np.arange(plan.realisations), plan.rms.size),
+        plan.steps_per_period,
+    )
+    law = model_law(scene)
+    record = kernels.new_record(plan.segment_steps, plan.trajectories)
+
+    def compiled() -> None:
+        state = kernels.at_rest(inputs, table, plan.h)
+        tally = kernels.new_tally(plan.trajectories, plan.bins, 0.0, plan.pdf_high / plan.bins)
+        for first, length, _ in plan.chunks():
+            part = kernels.Record(record.excess[:length], record.contact[:length])
+            kernels.advance(law, plan.h, state, inputs, table[first:], part)
+            kernels.accumulate(part, tally)
+
+    return {
+        "ns_per_trajectory_step": whole / steps * 1e9,
+        "compiled_ns_per_trajectory_step": _best(compiled, repeats) / steps * 1e9,
+        "forcing_ns_per_trajectory_step": forcing / steps * 1e9,
+    }
+
+
+def random_figures(lockstep_ns: float, quick: bool = False) -> dict[str, Any]:
+    """The random run's figures: ns per realisation-step of :data:`RANDOM_LOCKSTEP`
+    realisations of one level (rms 1 %, zeta 1 % and 256 steps per period as the lockstep
+    sweep's; 2200 periods, 440 in quick mode), of the whole run and of its compiled steps
+    alone, each over ``lockstep_ns`` (the lockstep sweep's ns per trajectory-step of as
+    many trajectories, measured in the same run; the issue's bound: 1.5), and the forcing
+    table's part (:func:`random_costs`); and the wall time [s] of the paper scene's run
+    (:func:`paper_random_scene`, best of 2, once in quick mode; kernels loaded beforehand,
+    the forcing's generation included: the issue's bound 10 s) and its trajectory-steps."""
+    from .random import run_random
+
+    duration, transient = (400, 40) if quick else (2000, 200)
+    scene = random_scene((0.01,), RANDOM_LOCKSTEP, duration, transient, zeta=0.01)
+    costs = random_costs(scene, repeats=1 if quick else 3)
+    out: dict[str, Any] = {
+        "random_ns_per_trajectory_step": costs["ns_per_trajectory_step"],
+        "random_ratio_to_lockstep": costs["ns_per_trajectory_step"] / lockstep_ns,
+        "random_compiled_ns_per_trajectory_step": costs["compiled_ns_per_trajectory_step"],
+        "random_compiled_ratio_to_lockstep": costs["compiled_ns_per_trajectory_step"] / lockstep_ns,
+        "random_forcing_ns_per_trajectory_step": costs["forcing_ns_per_trajectory_step"],
+    }
+    paper = paper_random_scene()
+    out["random_paper_trajectory_steps"] = run_random(paper).steps
+    out["random_paper_seconds"] = _best(lambda: run_random(paper), 1 if quick else 2)
+    return out
+
+
 # --------------------------------------------------------------------------- commands
 CONFIGS = Path(__file__).resolve().parents[3] / "configs"  # a checkout's scenes and studies
 
@@ -881,6 +1007,7 @@ def run_all(quick: bool = False) -> dict[str, Any]:
         out["batch_contact_ns_per_trajectory_step_16"]
         / out["floor_ns_per_trajectory_step_16_divided"]
     )
+    out.update(random_figures(out["batch_viscous_ns_per_trajectory_step_16"], quick))
     scene = bench_scene(31 if quick else 121)
     out["sweep_points"] = int(scene.sweep.frequency_ratios.size)
     out["sweep_dwells"] = out["sweep_points"] * len(scene.sweep.directions)
@@ -914,6 +1041,9 @@ __all__ = [
     "competitors",
     "equal_accuracy",
     "ivp_h1",
+    "random_costs",
+    "random_figures",
+    "random_scene",
     "numbalsoda_h1",
     "reference",
     "richardson_h1",

@@ -2,7 +2,7 @@
 
 A study file (TOML)::
 
-    kind = "sweep"                       # or "branch"
+    kind = "sweep"                       # or "branch", or "random"
     scene = "fig15-scene.toml"           # relative to the study file; or inline scene tables
     [grid]
     "damping.exponent" = [0, 0.5, 1, 1.5]
@@ -14,6 +14,17 @@ scene when there is one. ``split_sigma = true`` makes every sigma of the grid it
 (finer parallelism); by default the sigma values of the grid are all given to each case,
 whose trajectories then run together in one compiled loop
 (:func:`hertzsweep.drivers.sweep.run_sweep`).
+
+A random study (``kind = "random"``, its scene ``excitation.kind = "random"``) runs each
+case with :func:`hertzsweep.drivers.random.run_random`; its levels are ``excitation.rms``
+(the dimension ``rms``), folded into each case like sigma, and ``split_rms = true`` makes
+every level its own case. A realisation's stream depends only on the seed and its number,
+so a level's realisations give the same numbers alone as among the other levels: a split
+study's spectra and statistics are those of one run of every level, bit for bit, except
+the histogram (``force_pdf``): a run's bins span its largest level, so a split case's
+span its own level (those of a run of that level alone). A grid over ``excitation.seed``
+changes the streams (a new sample of the process); the realisations of one level are not
+split (they run in lockstep in one case).
 
 A case is identified by the sha256 of its resolved scene's canonical JSON
 (``Scene.attributes()`` and the kind, :func:`case_hash`). Cases run on an :class:`Engine`:
@@ -56,17 +67,24 @@ from ..errors import ConfigError, HertzsweepError
 
 DEFAULT_KIND = "sweep"  # a study file without `kind` (the SPEC's default)
 SIGMA_KEY = "excitation.sigma"
-STUDY_KEYS = ("kind", "scene", "grid", "split_sigma")
+RMS_KEY = "excitation.rms"
+LEVEL_KEYS = {"sweep": SIGMA_KEY, "branch": SIGMA_KEY, "random": RMS_KEY}  # a kind's levels:
+# the list-valued key a case's run takes whole (a dimension of its result)
+LEVEL_DIMS = {SIGMA_KEY: "sigma", RMS_KEY: "rms"}  # their dimensions, named as in the parts
+EXCITATION_OF = {"sweep": "sine", "branch": "sine", "random": "random"}  # a kind's scenes
+STUDY_KEYS = ("kind", "scene", "grid", "split_sigma", "split_rms")
 POLL_SECONDS = 0.2  # how often the driver looks at finished cases and stop requests
 QUEUE_PER_SLOT = 2  # cases in flight per worker slot: keeps workers busy, stops fast
 PRELOADED = (  # imported once by the local pool's fork server, inherited by every worker
     __name__,
     "hertzsweep.drivers.sweep",
     "hertzsweep.drivers.continuation",
+    "hertzsweep.drivers.random",
     "hertzsweep.drivers.preload",  # and the kernels loaded from numba's cache
 )
-CASE_KINDS = ("sweep", "branch")  # what one case of a study can be (the dataset kinds with
-# a case driver, hertzsweep.output.kinds.STUDY_KINDS): known before anything heavy loads
+CASE_KINDS = ("sweep", "branch", "random")  # what one case of a study can be (the dataset
+# kinds with a case driver, hertzsweep.output.kinds.STUDY_KINDS): known before anything heavy
+# loads
 
 Runner = Callable[[Scene], Any]  # a driver function: one case's scene -> its result
 
@@ -88,10 +106,12 @@ class Study:
     Attributes
     ----------
     source : the study file.
-    kind : the kind of every case (``"sweep"`` or ``"branch"``).
+    kind : the kind of every case (``"sweep"``, ``"branch"`` or ``"random"``).
     base : the base scene as a raw mapping (rig inlined), the grid not yet applied.
     grid : the grid keys in file order.
     split_sigma : every sigma of the grid its own case (default: all sigma in each case).
+    split_rms : every rms level of a random study's grid its own case (default: all
+        levels in each case).
     """
 
     source: str
@@ -99,15 +119,27 @@ class Study:
     base: dict[str, Any]
     grid: tuple[GridAxis, ...]
     split_sigma: bool = False
+    split_rms: bool = False
+
+    @property
+    def level_key(self) -> str:
+        """The dotted key of the levels of the study's kind (:data:`LEVEL_KEYS`)."""
+        return LEVEL_KEYS[self.kind]
+
+    @property
+    def split_levels(self) -> bool:
+        """Every level its own case: ``split_rms`` for a random study, else ``split_sigma``."""
+        return self.split_rms if self.level_key == RMS_KEY else self.split_sigma
 
     @property
     def case_axes(self) -> tuple[GridAxis, ...]:
-        """The axes the cases vary along (the grid but the folded sigma axis)."""
-        return tuple(a for a in self.grid if self.split_sigma or a.key != SIGMA_KEY)
+        """The axes the cases vary along (the grid but the folded level axis)."""
+        return tuple(a for a in self.grid if self.split_levels or a.key != self.level_key)
 
     @property
-    def sigma_axis(self) -> GridAxis | None:
-        return next((a for a in self.grid if a.key == SIGMA_KEY), None)
+    def level_axis(self) -> GridAxis | None:
+        """The grid axis of the levels (sigma, or rms for a random study), if any."""
+        return next((a for a in self.grid if a.key == self.level_key), None)
 
 
 @dataclass(frozen=True)
@@ -140,8 +172,9 @@ def grid_label(values: dict[str, Any]) -> str:
 
 def dimension_name(key: str) -> str:
     """SPEC: a grid key's dimension is the key with "." replaced by "_", except
-    ``excitation.sigma``, which is ``sigma``."""
-    return "sigma" if key == SIGMA_KEY else key.replace(".", "_")
+    ``excitation.sigma``, which is ``sigma`` (and ``excitation.rms``, ``rms``: the levels
+    keep their datasets' dimension)."""
+    return LEVEL_DIMS.get(key, key.replace(".", "_"))
 
 
 def _scalar(value: Any) -> bool:
@@ -178,9 +211,11 @@ def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
     if kind not in kinds:
         known = ", ".join(repr(k) for k in kinds)
         raise ConfigError(source, "kind", f"expected one of {known}, got {kind!r}")
-    split_sigma = raw.pop("split_sigma", False)
-    if not isinstance(split_sigma, bool):
-        raise ConfigError(source, "split_sigma", f"expected true or false, got {split_sigma!r}")
+    split = {name: raw.pop(name, False) for name in ("split_sigma", "split_rms")}
+    for name, value in split.items():
+        if not isinstance(value, bool):
+            raise ConfigError(source, name, f"expected true or false, got {value!r}")
+    _check_levels(source, kind, split, raw.get("grid", {}))
     grid_raw = raw.pop("grid", {})
     if not isinstance(grid_raw, dict):
         raise ConfigError(source, "grid", f"expected a table of key = [values], got {grid_raw!r}")
@@ -212,12 +247,18 @@ def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
     # the base itself must be valid; an error names the file the value came from: the
     # study, its scene file or the rig file
     try:
-        scene_from_dict(copy.deepcopy(base), source=base_source, rig_source=rig_source)
+        scene = scene_from_dict(copy.deepcopy(base), source=base_source, rig_source=rig_source)
     except ConfigError as exc:
         from_study = exc.key in given or exc.key.partition(".")[0] in given
         if exc.source == base_source != source and from_study:
             raise ConfigError(source, exc.key, exc.reason) from None
         raise
+    if scene.excitation.kind != EXCITATION_OF[kind]:
+        reason = (
+            f"a {kind} study runs scenes of excitation.kind = {EXCITATION_OF[kind]!r}; its "
+            f"scene has {scene.excitation.kind!r}"
+        )
+        raise ConfigError(source, "kind", reason)
     grid = []
     for key, values in grid_raw.items():
         if not isinstance(values, list) or not values:
@@ -234,7 +275,28 @@ def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
     dims = [a.dim for a in grid]
     if len(set(dims)) != len(dims):
         raise ConfigError(source, "grid", f"two keys give the same dimension: {dims}")
-    return Study(source=source, kind=kind, base=base, grid=tuple(grid), split_sigma=split_sigma)
+    return Study(source=source, kind=kind, base=base, grid=tuple(grid), **split)
+
+
+def _check_levels(source: str, kind: str, split: dict[str, bool], grid: Any) -> None:
+    """A study splits, and grids, only the levels its kind's scenes use: ``split_rms`` and
+    ``excitation.rms`` in a random study, ``split_sigma`` and ``excitation.sigma`` in the
+    others (the other key would make cases that differ in a value their run ignores).
+
+    Raises
+    ------
+    ConfigError
+        Naming the study file and the key.
+    """
+    levels = LEVEL_KEYS[kind]
+    for name, key in (("split_sigma", SIGMA_KEY), ("split_rms", RMS_KEY)):
+        if key == levels:
+            continue
+        reason = f"a {kind} study's levels are {levels}, not {key}"
+        if split[name]:
+            raise ConfigError(source, name, reason)
+        if isinstance(grid, dict) and key in grid:
+            raise ConfigError(source, f"grid.{key}", reason)
 
 
 def json_default(value: Any) -> Any:
@@ -268,15 +330,16 @@ def expand(study: Study) -> list[Case]:
         the study file and the case.
     """
     axes = study.case_axes
-    sigma = study.sigma_axis
+    levels = study.level_axis
     cases = []
     for index in itertools.product(*(range(len(a.values)) for a in axes)):
         values = {a.key: a.values[i] for a, i in zip(axes, index, strict=True)}
         raw = copy.deepcopy(study.base)
-        if sigma is not None and not study.split_sigma:
-            apply_override(raw, SIGMA_KEY, list(sigma.values), source=study.source)
+        if levels is not None and not study.split_levels:
+            apply_override(raw, levels.key, list(levels.values), source=study.source)
         for key, value in values.items():
-            apply_override(raw, key, [value] if key == SIGMA_KEY else value, source=study.source)
+            single = [value] if key == study.level_key else value
+            apply_override(raw, key, single, source=study.source)
         label = grid_label(values)
         scene = scene_from_dict(raw, source=f"{study.source}[{label}]" if label else study.source)
         preflight(scene)  # every check the case's run makes, before any case runs

@@ -15,7 +15,7 @@ import functools
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -806,10 +806,11 @@ def config_differences(
 def config_attribute_names() -> frozenset[str]:
     """The names of the flat config attributes every dataset carries (those of
     :meth:`Scene.attributes`), plus the study's."""
-    template = Scene(
-        rig=RigConfig(ball_radius=1.0, youngs_modulus=1.0, poisson_ratio=0.0, mass=1.0)
-    )
-    return frozenset(template.attributes()) | frozenset(STUDY_CONFIG_ATTRIBUTES)
+    rig = RigConfig(ball_radius=1.0, youngs_modulus=1.0, poisson_ratio=0.0, mass=1.0)
+    sine = Scene(rig=rig)
+    random = replace(sine, excitation=replace(sine.excitation, kind="random"))
+    names = set(sine.attributes()) | set(random.attributes())  # a random scene's own too
+    return frozenset(names) | frozenset(STUDY_CONFIG_ATTRIBUTES)
 
 
 def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:

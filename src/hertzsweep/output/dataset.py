@@ -57,6 +57,7 @@ if TYPE_CHECKING:  # the results' types only: building a dataset runs no driver
 
     from ..drivers.accuracy import AccuracyReport
     from ..drivers.continuation import BranchResult
+    from ..drivers.random import RandomResult
     from ..drivers.sweep import SweepResult
     from ..drivers.trace import TraceResult
 
@@ -96,6 +97,12 @@ SUMMARIES = {  # kind -> the ACDD ``summary`` of its datasets: what one holds, i
     "fit": (
         "Scene values identified by least squares from measurements, with their standard "
         "errors, the fitted model at every measured point and the residuals."
+    ),
+    "random": (
+        "Spectra (PSD, FRF, coherence) and statistics (moments, extremes, probability "
+        "density, loss of contact and flights) of the normalised contact force under "
+        "band-limited Gaussian excitation, for each input RMS level: means over independent "
+        "realisations with their standard errors."
     ),
 }
 RIG_ATTRIBUTES = (  # the rig's attributes: its table (Scene.attributes), its derived constants
@@ -642,6 +649,55 @@ def accuracy_dataset(report: AccuracyReport, scene: Scene, history: str | None =
     if report.settle_check is not None:
         extra["settle_check_h1"] = report.settle_check.h1
         extra["settle_check_label"] = report.settle_check_label
+    return merge_attributes(ds, extra)
+
+
+# --------------------------------------------------------------------------- random
+def random_dataset(result: RandomResult, scene: Scene, history: str | None = None) -> Frame:
+    """The random dataset of a :class:`~hertzsweep.drivers.random.RandomResult`.
+
+    Dimensions ``rms``, ``frequency_ratio`` (the Welch bins inside (0, Nyquist), with
+    ``frequency`` [Hz]) and ``force_bin`` (the centres of the histogram's bins of N/F_s).
+    Every statistic is the mean over the realisations, ``NAME_stderr`` its standard error
+    (NaN for one realisation); the ball model's adds ``ball_flight_fraction``. With
+    ``random.trace_periods`` > 0, the time history of realisation 0 of every level over
+    its first measured periods: ``trace_force`` (N/F_s) and ``trace_forcing`` (f) on
+    ``(rms, trace_sample)``, with the coordinates ``trace_tau`` and ``trace_time`` [s] from
+    the first measured step. Attributes: ``integration_steps``, ``realisations``,
+    ``welch_segments`` (whole segments in each realisation's spectra), ``measured_periods``
+    and ``complete`` (0: an interrupted run's statistics so far).
+    """
+    constants = derive(scene.rig)
+    f0 = constants.natural_frequency
+    w = result.frequency_ratio
+    data: Variables = {}
+    for name, values in result.mean.items():  # per level, per bin, or the histogram's
+        on = ("rms",) if values.ndim == 1 else ("rms", "frequency_ratio")
+        on = ("rms", "force_bin") if name == "force_pdf" else on
+        data[name] = (on, values)
+        data[f"{name}_stderr"] = (on, result.stderr[name])
+    coords = {
+        "rms": ("rms", result.rms, attrs("rms")),
+        "frequency_ratio": ("frequency_ratio", w, attrs("frequency_ratio")),
+        "frequency": ("frequency_ratio", w * f0, attrs("frequency")),
+        "force_bin": ("force_bin", result.force_bin, attrs("force_bin")),
+    }
+    if result.trace_tau.size:
+        tau = result.trace_tau
+        data["trace_force"] = (("rms", "trace_sample"), result.trace_force)
+        data["trace_forcing"] = (("rms", "trace_sample"), result.trace_forcing)
+        coords["trace_tau"] = ("trace_sample", tau, attrs("trace_tau"))
+        time = tau / constants.natural_circular_frequency
+        coords["trace_time"] = ("trace_sample", time, attrs("trace_time"))
+    title = "Response of a preloaded Hertzian contact to band-limited random excitation"
+    ds = _build(data, coords, global_attributes(scene, title, "random", history))
+    extra = {
+        "integration_steps": int(result.steps),
+        "realisations": int(result.realisations),
+        "welch_segments": int(result.segments),
+        "measured_periods": int(result.measured_periods),
+        "complete": int(result.complete),
+    }
     return merge_attributes(ds, extra)
 
 

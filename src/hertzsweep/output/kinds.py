@@ -23,7 +23,13 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import HertzsweepError
 from . import summary
-from .dataset import accuracy_dataset, branch_dataset, sweep_dataset, trace_dataset
+from .dataset import (
+    accuracy_dataset,
+    branch_dataset,
+    random_dataset,
+    sweep_dataset,
+    trace_dataset,
+)
 from .frame import Frame
 
 if TYPE_CHECKING:  # matplotlib and xarray only where a figure is drawn or a study combined
@@ -104,6 +110,13 @@ def _run_branch(*args: Any, **kwargs: Any) -> Any:
     return run_branch(*args, **kwargs)
 
 
+def _run_random(*args: Any, **kwargs: Any) -> Any:
+    """:func:`hertzsweep.drivers.random.run_random`."""
+    from ..drivers.random import run_random
+
+    return run_random(*args, **kwargs)
+
+
 def _run_accuracy(*args: Any, **kwargs: Any) -> Any:
     """:func:`hertzsweep.drivers.accuracy.measure_accuracy`."""
     from ..drivers.accuracy import measure_accuracy
@@ -144,6 +157,13 @@ def _branch_case() -> Runner:
     return run_branch
 
 
+def _random_case() -> Runner:
+    """A study's random case: every level and realisation of the case in lockstep."""
+    from ..drivers.random import run_random
+
+    return run_random
+
+
 # --------------------------------------------------------------------------- figures
 def _draw_sweep(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Figure:
     from .plot import sweep_figure
@@ -164,6 +184,12 @@ def _draw_branch(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Fig
     from .plot import branch_figure
 
     return branch_figure(ds, view, harmonics, overlay)
+
+
+def _draw_random(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Figure:
+    from .plot import random_figure
+
+    return random_figure(ds, view)
 
 
 def _draw_study(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Figure:
@@ -239,6 +265,8 @@ KINDS: dict[str, Kind] = {  # name, source, views, run, build, draw, summary[, e
              _draw_trace, summary.trace_summary, at_frequency=True),
         Kind("branch", SCENE, ("harmonics", "amplitude"), _run_branch, branch_dataset,
              _draw_branch, summary.branch_summary, case_driver=_branch_case),
+        Kind("random", SCENE, ("psd", "pdf", "loss"), _run_random, random_dataset,
+             _draw_random, summary.random_summary, case_driver=_random_case),
         Kind("study", STUDY, ("jumps",), _run_study, _combine, _draw_study,
              summary.study_summary),
         Kind("accuracy", SCENE, ("errors",), _run_accuracy, accuracy_dataset,

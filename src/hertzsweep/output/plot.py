@@ -16,6 +16,9 @@ dataset is that of its ``hertzsweep_kind`` (:func:`hertzsweep.output.kinds.figur
   spectrum against the harmonic order (Figures 7, 8, 12, 16, 17).
 - ``study``: the jump frequency against sigma, one curve per damping law (Figure 15).
 - ``accuracy``: error against cost, log-log, the Pareto front highlighted.
+- ``random``: the PSD of N/F_s for every level beside the linear model's, its probability
+  density beside the Gaussian's, and the loss of contact and the PSD's peak against the
+  level (the paper's Part 2, random excitation).
 
 Conventions: every axis label ends with its unit in brackets, that of the dataset's
 ``units`` (``[1]`` for a quantity in units of the static load F_s or a ratio,
@@ -1012,12 +1015,348 @@ def _accuracy_marks(
         )
 
 
+# --------------------------------------------------------------------------- random
+CONTACT_OPENS = 1.5  # q at which the compression d = 1 + 2q/3 reaches 0 (eq. 8)
+LINEAR_FORCE_ZERO = 1.0  # q at which the linearised force 1 + q reaches 0
+PDF_SIGMAS = 5.0  # a PDF panel spans the mean +- this many RMS of N/F_s
+PDF_DECADES = 5.0  # and this many decades of density below its highest value
+LOSS_FLOOR = 1e-6  # the lowest share of time out of contact drawn, without a measured one
+WELCH_GRID = 8  # points of the linear model's quadrature per resolution or peak width
+WELCH_CHUNK = 1 << 22  # its kernel's values formed at once (32 MiB)
+RMS_LABEL = r"input level: RMS of $f = F/F_s$ [%]"
+
+
+def random_figure(ds: xr.Dataset, view: str = "psd") -> Figure:
+    """Random excitation (Part 2 of the paper: the rig under band-limited Gaussian
+    noise), one view of a ``random`` dataset.
+
+    ``psd``: the PSD of N/F_s per unit frequency ratio against w, log scale, one colour
+    per level with its standard error as a band, and the linear model's ``|H|^2 S_f``
+    for the lowest level (:func:`linear_model_psd`: as it is, and as the Welch estimate
+    sees it); ``pdf``: the probability density of N/F_s, a panel per level, log scale,
+    beside the Gaussian of the same mean and RMS; ``loss``: the share of time out of
+    contact, with the Gaussian exceedances of the linear response
+    (:func:`gaussian_exceedance`), and the PSD's peak frequency ratio, both against rms
+    with their standard errors as error bars.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A dataset of kind ``random`` (:func:`hertzsweep.output.dataset.random_dataset`).
+    view : {"psd", "pdf", "loss"}
+
+    Returns
+    -------
+    Figure
+        9 x 6 in (``psd``), 4.2 in a column of up to three panels by 0.8 + 3.2 in a row
+        (``pdf``), 12 x 5.5 in (``loss``).
+
+    Raises
+    ------
+    HertzsweepError
+        An unknown view, or a dataset without levels.
+    """
+    draw = {"psd": _random_psd, "pdf": _random_pdf, "loss": _random_loss}
+    if view not in draw:
+        raise HertzsweepError(f"random figure: unknown view {view!r} (psd, pdf or loss)")
+    if ds.sizes.get("rms", 0) == 0:
+        raise HertzsweepError("no random run to draw (empty rms dimension)")
+    return draw[view](ds)
+
+
+def _rms_label(rms: float) -> str:
+    return f"rms {100.0 * rms:.3g} %"
+
+
+def _random_band(ds: xr.Dataset) -> tuple[float, float]:
+    low, high = np.asarray(ds.attrs["excitation_band"], dtype=float)
+    return float(low), float(high)
+
+
+def linear_model_psd(
+    w: np.ndarray,
+    rms: float,
+    band: tuple[float, float],
+    zeta: float,
+    segment_periods: int | None = None,
+) -> np.ndarray:
+    """The linear model's one-sided PSD of N/F_s per unit w: ``|H(w)|^2 S_f`` with
+    ``S_f = rms^2 / (w_high - w_low)`` on the band and 0 outside it
+    (:func:`hertzsweep.core.excitation.transmissibility`).
+
+    With ``segment_periods``, the mean of its Welch estimate instead: that PSD seen
+    through the periodic Hann window of a segment of ``T = 2 pi segment_periods`` in tau,
+    ``integral S(v) |W(w - v)|^2 dv / (2 pi integral w(t)^2 dt)``, which smooths a
+    resonance narrower than a few ``1 / segment_periods`` (the peak of width ``2 zeta``).
+    Integrated by the trapezoid rule on a grid :data:`WELCH_GRID` points a peak width or a
+    resolution, whichever is finer.
+
+    Parameters
+    ----------
+    w : float or array
+        Frequency ratios (the Welch bins ``k / segment_periods`` for the smoothed PSD).
+    rms : float
+        The level: RMS of f = F/F_s.
+    band : (float, float)
+        ``(w_low, w_high)``.
+    zeta : float
+        ``damping.ratio``.
+    segment_periods : int, optional
+        The Welch segment in periods; None: the PSD itself.
+
+    Returns
+    -------
+    numpy.ndarray
+        float[w.size], per unit w; its sum over the bins ``k / segment_periods`` times
+        ``1 / segment_periods`` is the variance ``rms^2 V`` (Parseval, to 1e-8).
+    """
+    from ..core.excitation import transmissibility
+
+    low, high = band
+    w = np.atleast_1d(np.asarray(w, dtype=float))
+    flat = rms * rms / (high - low)
+
+    def psd(v: np.ndarray) -> np.ndarray:
+        inside = (v >= low) & (v < high)
+        return np.where(inside, np.abs(transmissibility(v, zeta)) ** 2 * flat, 0.0)
+
+    if segment_periods is None:
+        return psd(w)
+    resolution = 1.0 / segment_periods
+    step = min(max(zeta, 1e-4), resolution) / WELCH_GRID
+    v = np.linspace(low, high, int(np.ceil((high - low) / step)) + 1)
+    density = psd(v)
+    density[-1] = density[-2]  # the band's upper end (the lines stop below it)
+    weight = np.full(v.size, v[1] - v[0])  # the trapezoid rule's weights
+    weight[[0, -1]] *= 0.5
+    length = 2.0 * np.pi * segment_periods
+    # |W|^2 of the Hann window: T^2 (sinc(u) / 2 + (sinc(u - pi) + sinc(u + pi)) / 4)^2
+    # at u = (w - v) T / 2, over 2 pi its energy 3 T / 8
+    scale = length * length / (2.0 * np.pi * 3.0 * length / 8.0)
+    out = np.empty(w.shape)
+    rows = max(1, WELCH_CHUNK // v.size)
+    for first in range(0, w.size, rows):
+        u = (w[first : first + rows, None] - v[None, :]) * (length / 2.0)
+        hann = 0.5 * np.sinc(u / np.pi) + 0.25 * (
+            np.sinc(u / np.pi - 1.0) + np.sinc(u / np.pi + 1.0)
+        )
+        out[first : first + rows] = scale * (hann * hann) @ (density * weight)
+    return out
+
+
+def gaussian_exceedance(
+    rms: np.ndarray, band: tuple[float, float], zeta: float, threshold: float = CONTACT_OPENS
+) -> np.ndarray:
+    """The share of time a Gaussian response of the linear model spends below ``q =
+    -threshold``: ``erfc(threshold / (sqrt 2 sigma)) / 2`` with ``sigma = rms sqrt(V)``,
+    V the linear variance of N/F_s under the unit process
+    (:func:`hertzsweep.core.excitation.linear_response_variance`; that of q is smaller by
+    a share of about ``4 zeta^2``).
+
+    Parameters
+    ----------
+    rms : float or array
+        Levels: RMS of f = F/F_s.
+    band : (float, float)
+        ``(w_low, w_high)``.
+    zeta : float
+        ``damping.ratio``.
+    threshold : float
+        :data:`CONTACT_OPENS` (3/2): the linear estimate of the loss of contact ``d = 1 +
+        2q/3 <= 0``; :data:`LINEAR_FORCE_ZERO` (1): the linearised force ``1 + q`` below 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        The shares, as ``rms``.
+    """
+    from scipy.special import erfc
+
+    from ..core.excitation import linear_response_variance
+
+    sigma = np.asarray(rms, dtype=float) * np.sqrt(linear_response_variance(band, zeta))
+    with np.errstate(divide="ignore"):
+        return 0.5 * erfc(threshold / (np.sqrt(2.0) * sigma))
+
+
+def _random_psd(ds: xr.Dataset) -> Figure:
+    fig = _new_figure(9.0, 6.0)
+    ax = fig.subplots()
+    w = ds.frequency_ratio.values
+    low, high = _random_band(ds)
+    shown = w <= min(1.2 * high, w[-1])
+    w = w[shown]
+    rms = ds.rms.values
+    for i, level in enumerate(rms):
+        psd = ds.psd.isel(rms=i).values[shown]
+        error = ds.psd_stderr.isel(rms=i).values[shown]
+        colour = _colour(i)
+        ax.fill_between(w, psd - error, psd + error, color=colour, alpha=0.25, lw=0)
+        ax.plot(w, psd, color=colour, lw=1.4, label=_rms_label(level))
+    lowest = int(np.argmin(rms))
+    zeta = float(ds.attrs["damping_ratio"])
+    segment = int(ds.attrs["random_segment_periods"])
+    fine = np.union1d(np.linspace(low, high, 4001)[:-1], [1.0])
+    fine = fine[(fine >= low) & (fine < high)]
+    exact = linear_model_psd(fine, float(rms[lowest]), (low, high), zeta)
+    ax.plot(fine, exact, color="0.45", lw=0.8, ls=":", label=r"linear model $|H|^2 S_f$")
+    welch = linear_model_psd(w, float(rms[lowest]), (low, high), zeta, segment)
+    ax.plot(w, welch, color="k", lw=0.9, ls="--", label="linear model, as Welch sees it")
+    inside = welch[(w >= low) & (w < high)]
+    floor = 0.1 * float(np.min(inside if inside.size else exact))
+    ax.set_yscale("log")
+    ax.set_ylim(floor, 3.0 * max(float(np.nanmax(ds.psd.values)), float(exact.max())))
+    ax.set_xlim(0.0, float(w[-1]))
+    ax.axvspan(low, high, color="0.93", lw=0, zorder=0)
+    ax.set_xlabel(W_LABEL)
+    ax.set_ylabel(r"PSD of $N/F_s$ per unit $\varpi$ [1]")
+    ax.grid(True, which="major", lw=0.3)
+    _hz_axis(ax, _f0(ds))
+    ax.legend(fontsize="small", loc="upper right")
+    text = (
+        rf"Random excitation on $\varpi$ = {low:g} .. {high:g} (shaded): PSD of $N/F_s$, "
+        f"Welch resolution 1/{segment}"
+    )
+    fig.suptitle(_title(ds, text), fontsize="medium")
+    return fig
+
+
+def _random_pdf(ds: xr.Dataset) -> Figure:
+    levels = ds.sizes["rms"]
+    columns = min(levels, 3)
+    rows = -(-levels // columns)
+    fig = _new_figure(4.2 * columns, 0.8 + 3.2 * rows)
+    axes = fig.subplots(rows, columns, squeeze=False).ravel()
+    for ax in axes[levels:]:
+        ax.remove()
+    x = ds.force_bin.values
+    width = float(x[1] - x[0]) if x.size > 1 else 1.0
+    for i, ax in enumerate(axes[:levels]):
+        one = ds.isel(rms=i)
+        _pdf_panel(ax, one, x, width, _colour(i))
+        ax.set_xlabel(FORCE_LABEL)
+        if i % columns == 0:
+            ax.set_ylabel(r"probability density of $N/F_s$ [1]")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize="small")
+    text = "Random excitation: probability density of $N/F_s$ and the Gaussian of its moments"
+    fig.suptitle(_title(ds, text), fontsize="medium")
+    return fig
+
+
+def _pdf_panel(ax, one: xr.Dataset, x: np.ndarray, width: float, colour: str) -> None:
+    """One level's histogram (its standard error a band) and the Gaussian of the same
+    mean and RMS, over the mean +- :data:`PDF_SIGMAS` RMS (at least two bins)."""
+    pdf = one.force_pdf.values
+    error = one.force_pdf_stderr.values
+    mean, sigma = float(one.force_mean), float(one.force_rms)
+    half = max(PDF_SIGMAS * sigma, 2.0 * width)
+    span = np.linspace(mean - half, mean + half, 801)
+    gauss = np.exp(-0.5 * ((span - mean) / sigma) ** 2) / (sigma * np.sqrt(2.0 * np.pi))
+    ax.fill_between(x, pdf - error, pdf + error, step="mid", color=colour, alpha=0.25, lw=0)
+    ax.step(x, pdf, where="mid", color=colour, lw=1.0, label="simulated (histogram)")
+    ax.plot(span, gauss, color="k", lw=1.0, ls="--", label="Gaussian, same mean and RMS")
+    ax.axvline(0.0, color="0.4", lw=0.6)
+    top = 2.0 * max(float(np.nanmax(pdf)), float(gauss.max()))
+    ax.set_yscale("log")
+    ax.set_ylim(top * 10.0**-PDF_DECADES, top)
+    ax.set_xlim(mean - half, mean + half)
+    ax.grid(True, lw=0.3)
+    title = (
+        f"{_rms_label(float(one.rms))}: skewness {float(one.force_skewness):+.2f}, "
+        f"kurtosis {float(one.force_kurtosis):.2f}"
+    )
+    loss = float(one.contact_loss_fraction)
+    if loss > 0:
+        title += f"\nout of contact {100.0 * loss:.3g} % (in the first bin)"
+    if width > 0.5 * sigma:
+        title += f"\nbins of {width:.2g}: wider than RMS / 2"
+    ax.set_title(title, fontsize="small", loc="left")
+
+
+def _level_axis(ax) -> None:
+    """A log axis of input levels in %, its ticks at 1, 2, 3, 5 and 7 of each decade
+    written plainly (levels spread from 0.1 % to 30 %)."""
+    ax.set_xscale("log")
+    ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0, 7.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
+def _random_loss(ds: xr.Dataset) -> Figure:
+    fig = _new_figure(12.0, 5.5)
+    left, right = fig.subplots(1, 2)
+    rms = ds.rms.values
+    percent = 100.0 * rms
+    loss = ds.contact_loss_fraction.values
+    lost = loss > 0
+    left.errorbar(
+        percent[lost],
+        loss[lost],
+        yerr=ds.contact_loss_fraction_stderr.values[lost],
+        ls="none",
+        marker="o",
+        ms=6,
+        capsize=3,
+        color=_colour(0),
+        label="simulated (d <= 0)",
+    )
+    low, high = _random_band(ds)
+    zeta = float(ds.attrs["damping_ratio"])
+    line = np.geomspace(rms.min(), rms.max(), 200)
+    for threshold, style, text in (
+        (CONTACT_OPENS, "-", r"Gaussian linear response: $P(q < -3/2)$"),
+        (LINEAR_FORCE_ZERO, ":", r"Gaussian linear response: $P(1 + q < 0)$"),
+    ):
+        chance = gaussian_exceedance(line, (low, high), zeta, threshold)
+        left.plot(100.0 * line, chance, color="k", lw=1.0, ls=style, label=text)
+    floor = 0.1 * float(loss[lost].min()) if lost.any() else LOSS_FLOOR
+    _level_axis(left)
+    left.set_ylim(min(floor, LOSS_FLOOR), 1.0)  # before the log scale: the limits hold
+    left.set_yscale("log")  # when nothing is positive (no loss, a Gaussian tail of 0)
+    left.set_xlabel(RMS_LABEL)
+    left.set_ylabel("share of time out of contact [1]")
+    left.grid(True, lw=0.3)
+    left.legend(fontsize="small", loc="lower right")
+    if not lost.all():
+        left.set_title(
+            f"{int((~lost).sum())} level(s) never out of contact: not drawn (0)",
+            fontsize="small",
+            loc="left",
+        )
+    segment = int(ds.attrs["random_segment_periods"])
+    right.errorbar(
+        percent,
+        ds.peak_frequency_ratio.values,
+        yerr=ds.peak_frequency_ratio_stderr.values,
+        ls="-",
+        marker="o",
+        ms=6,
+        capsize=3,
+        color=_colour(1),
+        label=f"peak of the PSD (Welch resolution 1/{segment})",
+    )
+    right.axhline(1.0, color="0.4", lw=0.8, ls="--", label="linear resonance")
+    _level_axis(right)
+    right.set_xlabel(RMS_LABEL)
+    right.set_ylabel(r"frequency ratio $\varpi$ of the PSD's peak [1]")
+    right.grid(True, which="both", lw=0.3)
+    right.legend(fontsize="small", loc="lower left")
+    _hz_axis(right, _f0(ds), where="right")
+    text = "Random excitation: loss of contact and the softening of the peak against the level"
+    fig.suptitle(_title(ds, text), fontsize="medium")
+    return fig
+
+
 __all__ = [
     "DPI",
     "FORMATS",
     "accuracy_figure",
     "branch_figure",
     "figure_format",
+    "gaussian_exceedance",
+    "linear_model_psd",
+    "random_figure",
     "select_harmonics",
     "select_sigma",
     "stability_segments",

@@ -25,6 +25,8 @@ import numpy as np
 from ..core.config import Scene, scene_from_dict
 from ..core.rig import derive
 from ..drivers.study import (
+    LEVEL_DIMS,
+    RMS_KEY,
     Case,
     CaseOutcome,
     Engine,
@@ -61,6 +63,8 @@ GRID_UNITS = {  # units of grid coordinates that are SI config values
     "rig.ball_mass": "kg",
     "rig.ball_density": "kg m-3",
 }
+CASE_BINS = ("force_bin",)  # coordinates a run places itself (the random histogram's bins
+# span 1 + 10 linear RMS of the run's largest level): a study holds them per case
 FLAGS = np.array([0, 1], dtype=np.int8)  # flag_values of a yes/no variable
 FLAGS_WITH_MISSING = np.array([-1, 0, 1], dtype=np.int8)  # and where a case failed
 
@@ -288,11 +292,16 @@ def study_dataset(
     longest part. ``case_failed`` (grid dims) is 1 where a case failed; ``case_id`` holds
     each case's hash. The config values that vary along the grid are coordinates, not
     global attributes. A sweep study keeps the parts'
-    ``jump_frequency_ratio(direction, ...grid...)``.
+    ``jump_frequency_ratio(direction, ...grid...)``. A random study's dims are the grid's
+    and the parts' ``rms``, ``frequency_ratio`` and ``force_bin``; as the bins of N/F_s are
+    each run's own (they differ along a grid over ``damping.ratio``, ``excitation.band``
+    or the split levels), ``force_bin`` numbers them and ``force_bin_centre(<case dims>,
+    force_bin)`` holds each case's centres (:func:`_case_bins`; NaN where a case failed).
     """
-    ds = _concatenate(study, parts)
+    parts, per_case = _case_bins(parts)
+    ds = _concatenate(study, parts).set_coords(per_case)
     for axis in study.grid:
-        if axis.dim != "sigma":
+        if axis.key != study.level_key:
             if ds[axis.dim].dtype.kind in "iu":  # the integer type of every index and count
                 ds = ds.assign_coords({axis.dim: ds[axis.dim].astype(INDEX)})
             labels = ds[axis.dim].dtype.kind in "OUS"
@@ -312,6 +321,7 @@ def study_dataset(
         "study_file": study.source,
         "study_grid": ", ".join(axis.key for axis in study.grid),
         "study_split_sigma": int(study.split_sigma),
+        **({"study_split_rms": int(study.split_rms)} if study.level_key == RMS_KEY else {}),
         "study_cases": len(cases),
         "study_failed": len(failures),
         "study_failures": "\n".join(failures),
@@ -332,14 +342,16 @@ def _fill_value(dtype: np.dtype) -> Any:
 
 
 def study_config(study: Study) -> dict[str, Any]:
-    """``config_json`` of a study: its file's content (``kind``, ``split_sigma``,
-    ``grid``) with the base scene resolved in place of the file it names (``scene``: the
-    tables of :meth:`~hertzsweep.core.config.Scene.to_dict`, the study's inline tables
-    and any overrides applied)."""
+    """``config_json`` of a study: its file's content (``kind``, ``split_sigma``, a random
+    study's ``split_rms``, ``grid``) with the base scene resolved in place of the file it
+    names (``scene``: the tables of :meth:`~hertzsweep.core.config.Scene.to_dict`, the
+    study's inline tables and any overrides applied)."""
     base = scene_from_dict(copy.deepcopy(study.base), source=study.source)
+    split = {"split_rms": study.split_rms} if study.level_key == RMS_KEY else {}
     return {
         "kind": study.kind,
         "split_sigma": study.split_sigma,
+        **split,
         "grid": {axis.key: list(axis.values) for axis in study.grid},
         "scene": base.to_dict(),
     }
@@ -358,9 +370,34 @@ def _grid_attrs(key: str, dim: str, labels: bool = False) -> dict[str, Any]:
     return out
 
 
+def _case_bins(
+    parts: Mapping[tuple[int, ...], xr.Dataset | None],
+) -> tuple[dict[tuple[int, ...], xr.Dataset | None], list[str]]:
+    """The parts with each coordinate of :data:`CASE_BINS` they hold made a data variable
+    ``NAME_centre`` on a bare ``NAME`` dimension (the bins' numbers), so that the parts
+    concatenate bin by bin rather than on the union of their centres, whichever cases
+    finished; and the names so made (coordinates of the combined dataset)."""
+    present = [ds for ds in parts.values() if ds is not None]
+    out = dict(parts)
+    made = []
+    for name in CASE_BINS:
+        if not all(name in ds.indexes for ds in present):
+            continue
+        centre = f"{name}_centre"
+        for index, ds in out.items():
+            if ds is not None:
+                values = ds[name]
+                note = "per case: each run's bins span its own range; the dimension numbers them"
+                meta = {**values.attrs, "comment": note}
+                out[index] = ds.drop_vars(name).assign({centre: (name, values.values, meta)})
+        made.append(centre)
+    return out, made
+
+
 def _concatenate(study: Study, parts: Mapping[tuple[int, ...], xr.Dataset | None]) -> xr.Dataset:
     """The parts along the case dimensions (fill values for a failed case), in the
     dimension order of :func:`study_dataset`."""
+    level = LEVEL_DIMS[study.level_key]  # a case dim the parts hold (split levels)
     case_dims = [axis.dim for axis in study.case_axes]
     values_of = {axis.dim: list(axis.values) for axis in study.grid}
     template = next(ds for ds in parts.values() if ds is not None)
@@ -380,10 +417,10 @@ def _concatenate(study: Study, parts: Mapping[tuple[int, ...], xr.Dataset | None
         new = {}
         for dim, i in zip(case_dims, index, strict=True):
             value = values_of[dim][i]
-            if dim != "sigma":
+            if dim != level:
                 new[dim] = [value]
             elif missing:
-                ds = ds.isel(sigma=[0]).assign_coords(sigma=[value])
+                ds = ds.isel({level: [0]}).assign_coords({level: [value]})
         return ds.expand_dims(new) if new else ds
 
     shape = [len(values_of[d]) for d in case_dims]

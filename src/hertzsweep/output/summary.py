@@ -160,6 +160,33 @@ def study_summary(result: object, ds: xr.Dataset) -> str:
     return "\n".join(lines)
 
 
+# --------------------------------------------------------------------------- random
+RANDOM_SUMMARY = (  # the per-level variables of a random run's summary line
+    "force_rms",
+    "force_skewness",
+    "force_kurtosis",
+    "contact_loss_fraction",
+    "peak_frequency_ratio",
+)
+
+
+def random_summary(result: object, ds: Any) -> str:
+    """One line per rms level: the RMS of N/F_s, its skewness and kurtosis, the share
+    of the time out of contact and the frequency ratio of the PSD's peak (means over the
+    realisations)."""
+    value = {name: ds[name].values for name in RANDOM_SUMMARY}
+    lines = []
+    for i, rms in enumerate(ds["rms"].values):
+        lines.append(
+            f"rms {rms:.4g}: N rms {value['force_rms'][i]:.4g} "
+            f"skewness {value['force_skewness'][i]:+.3f} "
+            f"kurtosis {value['force_kurtosis'][i]:.3f} "
+            f"loss {value['contact_loss_fraction'][i]:.4g} "
+            f"peak w {value['peak_frequency_ratio'][i]:.4f}"
+        )
+    return "\n".join(lines)
+
+
 # --------------------------------------------------------------------------- accuracy
 def _number(x: float, spec: str = ".2e") -> str:
     if math.isnan(x):
@@ -251,6 +278,7 @@ def _recommendation(report: AccuracyReport) -> str:
 __all__ = [
     "accuracy_summary",
     "branch_summary",
+    "random_summary",
     "study_summary",
     "sweep_summary",
     "trace_summary",
