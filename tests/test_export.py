@@ -83,6 +83,12 @@ def test_a_labone_sweeper_table_fits_f0_and_zeta(tmp_path, capsys):
     argv += ["--sensitivity", "0.0224", "--static-load", "110"]
     code, _, err = run_cli(argv, capsys)
     assert code == 0, err
+    assert_fits(measured, f0, zeta, tmp_path, capsys)
+
+
+def assert_fits(measured, f0, zeta, tmp_path, capsys) -> None:
+    """``hertzsweep fit --free rig.natural_frequency,damping.ratio`` of a measured file
+    recovers f0 within 0.1 % and zeta within 5 % (the issue's tolerances)."""
     argv = ["fit", measured, "--scene", CONFIGS / "measured" / "paper-scene.toml", "--free"]
     argv += ["rig.natural_frequency,damping.ratio", "-o", tmp_path / "fit.nc", "--json", "-q"]
     code, printed, err = run_cli(argv, capsys)
@@ -136,10 +142,4 @@ def test_a_uff_file_of_another_program_fits_f0_and_zeta(tmp_path, capsys):
     measured = tmp_path / "m.nc"
     code, _, err = run_cli(["import", path, "-o", measured, "--sigma", "0.0003"], capsys)
     assert code == 0, err
-    argv = ["fit", measured, "--scene", CONFIGS / "measured" / "paper-scene.toml", "--free"]
-    argv += ["rig.natural_frequency,damping.ratio", "-o", tmp_path / "fit.nc", "--json", "-q"]
-    code, printed, err = run_cli(argv, capsys)
-    assert code == 0, err
-    estimates = json.loads(printed)["parameters"]
-    assert estimates["rig.natural_frequency"]["estimate"] == pytest.approx(f0, rel=1e-3)
-    assert estimates["damping.ratio"]["estimate"] == pytest.approx(zeta, rel=0.05)
+    assert_fits(measured, f0, zeta, tmp_path, capsys)
