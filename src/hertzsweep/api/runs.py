@@ -193,10 +193,20 @@ def run_trace(
 FINISHED_ATTRS = {"long_name": "that sweep ran to its end", "units": "1"}  # OUT.partial.nc's
 
 
-def partial_sweep(exc: BaseException, scene: Scene) -> tuple[Any, int, int] | None:
-    """The dataset of an interrupted sweep's finished dwells (those not reached NaN,
-    ``finished`` marking the sweeps that ran to their end, attribute ``complete = 0``),
-    the number of finished dwells and of whole sweeps; None when none finished."""
+@dataclass(frozen=True)
+class Partial:
+    """What an interrupted run finished: its dataset (attribute ``complete = 0``), what
+    it holds (``kept``, e.g. "12 finished dwell(s), 1 whole sweep(s)") and what it is
+    called in a message (``what``, "the finished dwells")."""
+
+    dataset: Any
+    kept: str
+    what: str
+
+
+def partial_sweep(exc: BaseException, scene: Scene) -> Partial | None:
+    """The finished dwells of an interrupted sweep (those not reached NaN, ``finished``
+    marking the sweeps that ran to their end); None when none finished."""
     import numpy as np
 
     result = getattr(exc, "partial", None)
@@ -206,7 +216,8 @@ def partial_sweep(exc: BaseException, scene: Scene) -> tuple[Any, int, int] | No
     ds["finished"] = (("direction", "sigma"), result.finished.astype(np.int8), FINISHED_ATTRS)
     ds.attrs["complete"] = 0
     dwells = int(np.isfinite(result.amplitude[..., 0]).sum())
-    return ds, dwells, int(result.finished.sum())
+    kept = f"{dwells} finished dwell(s), {int(result.finished.sum())} whole sweep(s),"
+    return Partial(ds, kept, "the finished dwells")
 
 
 def run_random(scene: Scene, progress: Progress = False, history: str | None = None) -> Run:
@@ -229,15 +240,16 @@ def run_random(scene: Scene, progress: Progress = False, history: str | None = N
     return Run(random, scene, result, random.build(result, scene, history))
 
 
-def partial_random(exc: BaseException, scene: Scene) -> tuple[Any, int] | None:
-    """The dataset of an interrupted random run's finished segments (attribute
-    ``complete = 0``) and their number; None when no measured segment finished."""
+def partial_random(exc: BaseException, scene: Scene) -> Partial | None:
+    """The statistics of the segments an interrupted random run finished; None when no
+    measured segment finished."""
     result = getattr(exc, "partial", None)
     if result is None or not result.segments:
         return None
     ds = kind("random").build(result, scene)
     ds.attrs["complete"] = 0
-    return ds, int(result.segments)
+    kept = f"{int(result.segments)} finished segment(s) of every realisation"
+    return Partial(ds, kept, "the finished segments")
 
 
 def check_trace(
@@ -536,16 +548,18 @@ def parse_variable_tolerances(texts: Sequence[str]) -> dict[str, tuple[float, fl
     return dict(parse_variable_tolerance(text) for text in texts)
 
 
-def rig_constants(scene: Scene | str | os.PathLike) -> dict[str, float]:
+def rig_constants(
+    scene: Scene | str | os.PathLike, rig: tuple[Any, str] | None = None
+) -> dict[str, float]:
     """The rig's derived constants, and a scene's stability limit and margin
-    (:func:`hertzsweep.api.rig`)."""
+    (:func:`hertzsweep.api.rig`); ``rig``, the ``(rig, source)`` of a file already read."""
     from ..core.checks import check_rig, load_checked_scene, rig_source
     from ..core.config import read_rig, read_toml
     from ..core.model import stability_limit
 
     if not isinstance(scene, Scene):
         path = os.fspath(scene)
-        rig_config, source = read_rig(path)
+        rig_config, source = rig or read_rig(path)
         constants = check_rig(rig_config, source).as_dict()
         if set(read_toml(path)) == {"rig"}:
             return constants
@@ -560,10 +574,11 @@ def rig_constants(scene: Scene | str | os.PathLike) -> dict[str, float]:
 
 def rig_report(path: str | os.PathLike) -> tuple[dict[str, float], bool]:
     """``hertzsweep rig``'s constants of a rig or scene file (:func:`rig_constants`), and
-    whether the rig gives a measured f0."""
+    whether the rig gives a measured f0 (``natural_frequency`` is the rig's own then)."""
     from ..core.config import read_rig
 
-    return rig_constants(path), read_rig(path)[0].natural_frequency is not None
+    rig, source = read_rig(path)
+    return rig_constants(path, (rig, source)), rig.natural_frequency is not None
 
 
 def validate(path: str | os.PathLike, overrides: Mapping[str, Any]) -> tuple[Scene, Any]:

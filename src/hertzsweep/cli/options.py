@@ -186,15 +186,31 @@ def report(run: Run, output: str) -> None:
         click.echo(f"hertzsweep: warning: {warning}", err=True)
 
 
-def keep_partial(ds: Any, scene: Scene, output: str, what: str, kept: str) -> None:
-    """Write an interrupted run's finished work ``ds`` to ``OUT.partial.nc`` and say so on
-    stderr (``kept``: what it holds, e.g. "12 finished dwell(s)"); the output itself stays
+def write_or_keep(
+    run: Callable[[], Run], partial: Callable[..., Any], scene: Scene, output: str
+) -> None:
+    """Run and write the output; when a signal interrupts the run, write what it finished
+    (``partial(exc, scene)``: a :class:`~hertzsweep.api.runs.Partial` or None) to
+    ``OUT.partial.nc``, say so on stderr, and end as interrupted. The output itself stays
     absent.
 
     The partial file is written as the output is: not over one of the run's inputs, nor
     over a link, a folder or a special file, atomically. When it cannot be written, one
-    line says why (``what``: "the finished dwells") and the run still ends as
-    interrupted."""
+    line says why and the run still ends as interrupted."""
+    from ..errors import Interrupted
+
+    try:
+        done = run()
+    except Interrupted as exc:
+        kept = partial(exc, scene)
+        if kept is not None:
+            _keep(kept, scene, output)
+        raise
+    write_run(done, output)
+
+
+def _keep(kept: Any, scene: Scene, output: str) -> None:
+    """Write an interrupted run's :class:`~hertzsweep.api.runs.Partial` beside the output."""
     from pathlib import Path
 
     from ..errors import HertzsweepError
@@ -202,9 +218,9 @@ def keep_partial(ds: Any, scene: Scene, output: str, what: str, kept: str) -> No
     partial = Path(output).with_suffix(".partial.nc")
     try:
         files.check_not_input(partial, scene.inputs)
-        files.write(ds, partial)
+        files.write(kept.dataset, partial)
     except (OSError, HertzsweepError) as error:
         where = f"{error.filename}: {error.strerror}" if isinstance(error, OSError) else error
-        click.echo(f"hertzsweep: cannot keep {what}: {where}", err=True)
+        click.echo(f"hertzsweep: cannot keep {kept.what}: {where}", err=True)
         return
-    click.echo(f"kept {kept} in {partial}", err=True)
+    click.echo(f"kept {kept.kept} in {partial}", err=True)

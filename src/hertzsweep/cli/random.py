@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from ..errors import Interrupted
+from functools import partial
+
 from . import options
 from .group import cli
 
@@ -17,29 +18,12 @@ def random_command(scene_file: str, output: str, overrides: tuple[str, ...], qui
     rms level, its realisations in lockstep: the PSD of N/F_s, the FRF estimate and
     coherence, moments, PDF, extremes and contact-loss figures, each with its standard
     error across realisations; prints one line per level."""
-    from ..api.runs import run_random
+    from ..api.runs import partial_random, run_random
 
     scene = options.read_scene(scene_file, overrides)
     options.claim_output(output, scene.inputs)
-    try:
-        run = run_random(scene, options.progress(quiet))
-    except Interrupted as exc:
-        keep_partial(exc, scene, output)
-        raise
-    options.write_run(run, output)
-
-
-def keep_partial(exc: Interrupted, scene, output: str) -> None:
-    """Write the statistics of the segments an interrupted run finished to
-    ``OUT.partial.nc`` (attribute ``complete = 0``); the output itself stays absent."""
-    from ..api.runs import partial_random
-
-    kept = partial_random(exc, scene)
-    if kept is None:
-        return
-    ds, segments = kept
-    held = f"{segments} finished segment(s) of every realisation"
-    options.keep_partial(ds, scene, output, "the finished segments", held)
+    run = partial(run_random, scene, options.progress(quiet))
+    options.write_or_keep(run, partial_random, scene, output)
 
 
 __all__ = ["random_command"]

@@ -47,7 +47,7 @@ from numba import njit
 from . import CACHE
 from .ball import _observe
 from .ball import _status as _ball_status
-from .integrate import observe
+from .integrate import _finite, observe
 from .rk import ZERO, _acceleration, _correct, _crossing, _rk4
 from .scheme import (
     NON_FINITE,
@@ -58,7 +58,6 @@ from .scheme import (
     forcing,
     make_step,
     to_compression,
-    to_displacement,
 )
 from .stop import REQUEST, requested
 
@@ -139,22 +138,20 @@ def inputs(level: np.ndarray, realisation: np.ndarray, steps_per_period: int) ->
     )
 
 
-@njit(cache=CACHE, inline="always")
-def _finite(d_prev, d):
-    """Whether the state is finite as a displacement (as :mod:`.integrate` checks it)."""
-    return math.isfinite(to_displacement(d)) and math.isfinite(to_displacement(d_prev))
-
-
 @njit(cache=CACHE, error_model="numpy")
-def _check(state, peak, limit, stop):
+def _check(peak, limit, first, second, compressed, stop):
     """``(status, trajectory)``: the first trajectory unstable (its largest root at or
-    beyond ``limit``), else the first non-finite, else :data:`~.scheme.STOPPED` (-1) when a
-    stop was requested, else OK (-1)."""
+    beyond ``limit``), else the first non-finite (its state rows ``first``, ``second``:
+    compressions when ``compressed``, checked as displacements, :func:`.integrate._finite`;
+    else velocity and displacement), else :data:`~.scheme.STOPPED` (-1) when a stop was
+    requested, else OK (-1)."""
     for t in range(peak.shape[0]):
         if peak[t] >= limit:
             return UNSTABLE, t
     for t in range(peak.shape[0]):
-        if not _finite(state[0, t], state[1, t]):
+        a, b = first[t], second[t]
+        finite = _finite(a, b) if compressed else math.isfinite(a) and math.isfinite(b)
+        if not finite:
             return NON_FINITE, t
     if requested(stop):
         return STOPPED, -1
@@ -212,7 +209,7 @@ def advance(law, h, state, drive, g, record):
         since += 1
         if since == drive.steps_per_period or j == excess.shape[0] - 1:
             since = 0
-            status, bad = _check(state, peak, s.limit, drive.stop)
+            status, bad = _check(peak, s.limit, state[0], state[1], True, drive.stop)
             if status != OK:
                 return status, bad
     return OK, -1
@@ -359,21 +356,6 @@ def _split(law, h, ends, forcing_samples, event, scratch):
     return q, v, at
 
 
-@njit(cache=CACHE, error_model="numpy")
-def _rk4_check(state, peak, limit, stop):
-    """``(status, trajectory)`` of :func:`advance_rk4` as :func:`_check` (RK4's limit
-    ``(h omega)^2 < 8`` on ``omega^2 = sqrt(d)``)."""
-    for t in range(peak.shape[0]):
-        if peak[t] >= limit:
-            return UNSTABLE, t
-    for t in range(peak.shape[0]):
-        if not (math.isfinite(state[VELOCITY, t]) and math.isfinite(state[DISPLACEMENT, t])):
-            return NON_FINITE, t
-    if requested(stop):
-        return STOPPED, -1
-    return OK, -1
-
-
 @njit(cache=CACHE, error_model="numpy", nogil=True)
 def advance_rk4(law, h, state, drive, g, record):
     """One segment of ``S = record.excess.shape[0]`` rk4 steps of T trajectories, in place
@@ -434,7 +416,9 @@ def advance_rk4(law, h, state, drive, g, record):
         since += 1
         if since == drive.steps_per_period or j == excess.shape[0] - 1:
             since = 0
-            status, bad = _rk4_check(state, peak, limit, drive.stop)
+            status, bad = _check(
+                peak, limit, state[VELOCITY], state[DISPLACEMENT], False, drive.stop
+            )
             if status != OK:
                 state[STEPS, :] = now + 1.0
                 return status, bad
