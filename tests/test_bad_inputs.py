@@ -278,6 +278,7 @@ BAD_VALUES: dict[str, dict[str, Any]] = {
     "sweep.max_settle_periods": kinds(*WHOLE),
     "sweep.jump_threshold": kinds(*NUMBER, one=1.0),
     "sweep.steady_state": kinds(*CHOICE, string="bogus", empty="", list=["settle"]),
+    "sweep.period_multiple": kinds(*WHOLE, nine=9, large=10**6),
     "solver.method": kinds(*CHOICE, string="bogus", empty="", list=["central-difference"]),
     "solver.steps_per_period": kinds(*WHOLE),
     "solver.max_steps": kinds(*WHOLE),
@@ -290,9 +291,16 @@ BAD_VALUES: dict[str, dict[str, Any]] = {
         string_in_list=[1, "2"],
     ),
 }
+BAD_VALUES["branch.follow_period_doubling"] = kinds(
+    "negative", "zero", "nan", "string", "list", "table", one=1, word="yes"
+)
 for dotted, bad in BAD_VALUES.items():
     for kind, value in bad.items():
         validate("values", f"{dotted}={kind}", scene({dotted: value}), "scene.toml", dotted)
+for value in ("0", "9", "1.5"):  # the n-period map's n from the command line
+    set_value = ("--set", f"sweep.period_multiple={value}")
+    name = f"set:sweep.period_multiple={value}"
+    validate("values", name, scene(), "--set", "sweep.period_multiple", extra=set_value)
 
 # ---- absurd values: in range by type, impossible to compute honestly --------------------
 N256 = {"solver.steps_per_period": 256}

@@ -215,17 +215,33 @@ def trace(
     return run.dataset()
 
 
-def branch(scene: Scene, *, progress: bool = False) -> xr.Dataset:
+def branch(
+    scene: Scene, *, follow_period_doubling: bool | None = None, progress: bool = False
+) -> xr.Dataset:
     """Periodic orbits by shooting with arclength continuation across the sweep's span,
     for every sigma: stability (Floquet multipliers), folds, period doublings and
     Neimark-Sacker points (``hertzsweep branch``).
 
+    Parameters
+    ----------
+    scene : Scene
+    follow_period_doubling : bool, optional
+        Also continue the period-doubled branches from every period-doubling point,
+        recursively down to period 8 (``hertzsweep branch --follow-pd``; default: the
+        scene's ``[branch] follow_period_doubling``).
+    progress : bool
+        Show a progress bar.
+
     Returns
     -------
     xarray.Dataset
-        Of kind ``branch``.
+        Of kind ``branch``; with period-doubled branches, a ``branch`` dimension.
     """
-    history = python_history(call_text("branch", scene))
+    history = python_history(
+        call_text("branch", scene, follow_period_doubling=follow_period_doubling)
+    )
+    if follow_period_doubling is not None:
+        scene = scene.with_overrides({"branch.follow_period_doubling": follow_period_doubling})
     return runs.run_branch(scene, progress, history).dataset()
 
 

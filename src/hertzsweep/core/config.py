@@ -130,12 +130,22 @@ class SweepConfig:
     max_settle_periods: int = 5000
     jump_threshold: float = 0.3
     steady_state: str = "settle"
+    period_multiple: int = 1
 
     @property
     def frequency_ratios(self) -> np.ndarray:
         """The grid start, start + step, ... up to stop (inclusive within 1e-9 step)."""
         count = int(math.floor((self.stop - self.start) / self.step + 1e-9)) + 1
         return np.round(self.start + self.step * np.arange(count), 12)
+
+
+@dataclass(frozen=True)
+class BranchConfig:
+    """The continuation of ``hertzsweep branch`` beyond the scene's own tables: whether
+    the period-doubled branches are followed from every period-doubling point (down to
+    period :data:`MAX_PERIOD_MULTIPLE`)."""
+
+    follow_period_doubling: bool = False
 
 
 @dataclass(frozen=True)
@@ -198,6 +208,7 @@ class Scene:
     lockin: LockinConfig = LockinConfig()
     model: ModelConfig = ModelConfig()
     random: RandomConfig = RandomConfig()
+    branch: BranchConfig = BranchConfig()
     source: str = "<scene>"
     # the files the scene was read from (the scene, then its rig file if any): an output
     # path must not be one of them; not part of the scene's value
@@ -312,6 +323,8 @@ class Scene:
         (or with ``random``), every key but :data:`RANDOM_KEYS` of a sine scene."""
         if random is None:
             random = self.is_random
+        if (table, key) in QUIET_DEFAULTS:
+            return getattr(getattr(self, table), key) != QUIET_DEFAULTS[table, key]
         return random or not (table in RANDOM_TABLES or (table, key) in RANDOM_KEYS)
 
     def _tables(self, random: bool) -> dict[str, dict[str, Any]]:
@@ -329,7 +342,8 @@ class Scene:
                 if value is None or value == ():  # unset (a sine scene's empty rms)
                     continue
                 table[key] = list(value) if isinstance(value, tuple) else value
-            tables[name] = table
+            if table or name not in QUIET_TABLES:
+                tables[name] = table
         return tables
 
 
@@ -348,6 +362,24 @@ def _integer(source: str, key: str, value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise ConfigError(source, key, f"expected a whole number, got {value!r}")
     return value
+
+
+def _boolean(source: str, key: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(source, key, f"expected true or false, got {value!r}")
+    return value
+
+
+MAX_PERIOD_MULTIPLE = 8  # the longest period (in excitation periods) shot or followed
+
+
+def _period_multiple(source: str, key: str, value: Any) -> int:
+    x = _integer(source, key, value)
+    if not 1 <= x <= MAX_PERIOD_MULTIPLE:
+        raise ConfigError(
+            source, key, f"must be a whole number from 1 to {MAX_PERIOD_MULTIPLE}, got {value!r}"
+        )
+    return x
 
 
 def _string(source: str, key: str, value: Any, allowed: Iterable[str]) -> str:
@@ -500,6 +532,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "max_settle_periods": _positive_int,
         "jump_threshold": _fraction,
         "steady_state": lambda s, k, v: _string(s, k, v, STEADY_STATE_METHODS),
+        "period_multiple": _period_multiple,
     },
     "solver": {
         "method": lambda s, k, v: _string(s, k, v, SOLVER_METHODS),
@@ -516,6 +549,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "force_bins": _bin_count,
         "trace_periods": _non_negative_int,
     },
+    "branch": {"follow_period_doubling": _boolean},
 }
 REQUIRED_RIG_KEYS = ("ball_radius", "youngs_modulus", "poisson_ratio", "mass")
 BUDGET_KEYS = {("solver", "max_steps")}  # limits of a run, not settings of its result
@@ -528,11 +562,20 @@ CLASSES = {
     "lockin": LockinConfig,
     "model": ModelConfig,
     "random": RandomConfig,
+    "branch": BranchConfig,
 }
 # What only a random scene uses: left out of a sine scene's attributes() and to_dict(), so
 # that a sine scene's datasets are those it gave before random excitation existed
 RANDOM_KEYS = {("excitation", key) for key in ("kind", "rms", "band", "seed")}
 RANDOM_TABLES = ("random",)
+# Keys left out of a scene's attributes() and to_dict() while at these defaults, so that a
+# scene that does not use them gives the datasets it gave before they existed; a table
+# left with no key (``[branch]``) is left out too
+QUIET_DEFAULTS: dict[tuple[str, str], Any] = {
+    ("sweep", "period_multiple"): 1,
+    ("branch", "follow_period_doubling"): False,
+}
+QUIET_TABLES = ("branch",)
 # What each key of SCHEMA sets, one line each ([unit] first where it has one): the manual's
 # configuration reference is generated from SCHEMA, the dataclasses' defaults and this table
 DESCRIPTIONS: dict[str, str] = {
@@ -564,6 +607,11 @@ DESCRIPTIONS: dict[str, str] = {
     "counts as a jump",
     "sweep.steady_state": "settle (integrate until steady) or shooting (Newton on the "
     "one-period map)",
+    "sweep.period_multiple": "[periods] shooting (steady_state = 'shooting') solves for orbits "
+    "of this many excitation periods, Newton on the n-period map: 2 lands on a period-doubled "
+    "response where the sweep's settled state is one (1 to 8)",
+    "branch.follow_period_doubling": "hertzsweep branch also continues the period-doubled "
+    "branch from every period-doubling point, recursively down to period 8 (as --follow-pd)",
     "solver.method": "the integration method: the paper's central difference (order 2) or rk4 "
     "with located contact crossings",
     "solver.steps_per_period": "integration steps per excitation period (above the stability "

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.config import Scene
+from ..core.config import MAX_PERIOD_MULTIPLE, Scene
 from ..core.model import check_stability
 from ..errors import ConvergenceError, HertzsweepError
 from .oscillator import Oscillator, Reading
@@ -62,6 +62,11 @@ from .shooting import (
 Progress = Callable[[int], None]
 
 POINTS_PER_PROGRESS = 100  # progress units per branch (per cent of the w span)
+RETURN_TOLERANCE = 1e-8  # |P^n(x) - x|_inf / Q (in z) below which a period-doubled branch's
+# orbit is its parent's period-n orbit again: 100x the corrector's tolerance, far below the
+# offset one first step from the period doubling (about 2 first_step |v|_inf ~ 1e-3)
+SAME_POINT = 1e-6  # in w and z: a period-doubled branch that reconnected at its parent's
+# period doubling reached that point (no second branch is started from it)
 KINDS = ("fold", "period-doubling", "neimark-sacker")
 
 
@@ -148,8 +153,16 @@ class Branch(Readings):
     ``complete`` is true when the branch reached the far end of the w span; ``end`` says
     how it ended: ``"end"`` (the far end), ``"start"`` (it turned back and left the span
     where it began), ``"stalled"`` (the step fell below ``min_step``), ``"retraced"``
-    (it ran back onto itself past a corner), ``"max-points"``. ``bridges`` counts the gaps
-    crossed at fixed w (see :func:`continue_branch`).
+    (it ran back onto itself past a corner), ``"max-points"``, and for a period-doubled
+    branch ``"reconnected"`` (it returned to its parent's branch: :func:`continue_doubled`).
+    ``bridges`` counts the gaps crossed at fixed w (see :func:`continue_branch`).
+
+    ``period_multiple`` n: the orbits repeat after n excitation periods (fixed points of
+    ``P^n``); ``parent``: the index among its sigma's branches of the branch it was
+    switched from at a period doubling (-1 for the primary branch), ``parent_bifurcation``
+    the index of that period doubling in the parent's ``bifurcations`` (-1). ``y`` and
+    ``tangent`` (P, size + 1): each point's ``(z, w)`` and unit tangent, from which a
+    period-doubled branch is started.
     """
 
     sigma: float
@@ -162,6 +175,11 @@ class Branch(Readings):
     end: str
     bridges: int
     steps: int
+    period_multiple: int = 1
+    parent: int = -1
+    parent_bifurcation: int = -1
+    y: np.ndarray | None = None
+    tangent: np.ndarray | None = None
 
     @property
     def folds(self) -> list[Bifurcation]:
@@ -174,7 +192,13 @@ class Branch(Readings):
 
 @dataclass
 class BranchResult:
-    """Branches for every sigma of a scene (the input of the branch dataset)."""
+    """Branches for every sigma of a scene (the input of the branch dataset).
+
+    ``branches``: the primary (period-1) branch of each sigma. ``followed``: per sigma,
+    the period-doubled branches continued from its period doublings (``[branch]
+    follow_period_doubling``; their ``parent`` indexes the sigma's :meth:`family`, whose
+    first member is the primary), empty lists otherwise.
+    """
 
     sigma: np.ndarray
     harmonics: np.ndarray
@@ -183,6 +207,17 @@ class BranchResult:
     end_frequency_ratio: float
     steps: int = 0
     extra: dict = field(default_factory=dict)
+    followed: list[list[Branch]] | None = None
+
+    @property
+    def follows_period_doubling(self) -> bool:
+        """Whether period-doubled branches were followed (the dataset's ``branch``
+        dimension)."""
+        return self.followed is not None
+
+    def family(self, s: int) -> list[Branch]:
+        """The branches of sigma number ``s``: the primary, then the followed ones."""
+        return [self.branches[s], *(self.followed[s] if self.followed is not None else [])]
 
 
 # --------------------------------------------------------------------------- points
@@ -254,9 +289,12 @@ class _Continuation:
         w_end: float,
         parameters: ContinuationParameters,
         progress: Progress | None,
+        periods: int = 1,
+        check: int = 0,
     ) -> None:
         self.oscillator = oscillator
-        self.period = PeriodMap(oscillator)
+        self.periods = int(periods)
+        self.period = PeriodMap(oscillator, periods, check)
         self.w_begin = w_begin
         self.w_end = w_end
         self.low, self.high = min(w_begin, w_end), max(w_begin, w_end)
@@ -287,11 +325,17 @@ class _Continuation:
             state.end = "end"  # a span of one frequency: one point
         return state
 
-    def correct(self, point: _Point, ds: float) -> tuple[_Point | None, int]:
+    def correct(
+        self, point: _Point, ds: float, normal: np.ndarray | None = None
+    ) -> tuple[_Point | None, int]:
         """Predictor ``y + ds t`` and pseudo-arclength corrector. Returns the new point
-        (None if the corrector failed) and the number of map evaluations."""
+        (None if the corrector failed) and the number of map evaluations.
+
+        ``normal``: the corrector's hyperplane ``normal . (y - y_k) = ds normal . t``
+        instead of ``t . (y - y_k) = ds`` (a branch switch, :func:`continue_doubled`)."""
         t = point.tangent
         y = point.y + ds * t
+        along = None if normal is None else ds * float(normal @ t)
         iterations = self.parameters.max_corrector_iterations
         for count in range(1, iterations + 1):
             evaluation = self.period(y[:-1], float(y[-1]))
@@ -305,8 +349,12 @@ class _Continuation:
                 if tangent @ (y - point.y) < 0.0:
                     tangent = -tangent  # past a corner: keep going the way the step went
                 return _Point(y, tangent, evaluation, point.arclength + ds), count
-            system = np.vstack([evaluation.jacobian, t])
-            rhs = np.concatenate([evaluation.residual, [t @ (y - point.y) - ds]])
+            if normal is None:
+                system = np.vstack([evaluation.jacobian, t])
+                rhs = np.concatenate([evaluation.residual, [t @ (y - point.y) - ds]])
+            else:
+                system = np.vstack([evaluation.jacobian, normal])
+                rhs = np.concatenate([evaluation.residual, [normal @ (y - point.y) - along]])
             try:
                 y = y - np.linalg.solve(system, rhs)
             except np.linalg.LinAlgError:
@@ -514,6 +562,7 @@ def iterate(run: _Continuation, state: ContinuationState) -> None:
         _reverse_tangent(state, parameters)
         return
     new = _clip_to_span(run, state, point, new)
+    new = _clip_to_parent(run, state, point, new)
     _detect(run, state, point, new, kinked)
     _mark_kinked_fold(state, new)
     state.trace[len(state.points)] = np.concatenate((new.y, new.tangent))
@@ -581,10 +630,33 @@ def _clip_to_span(
     edge = run.high if w_new > run.high else run.low
     found = run.locate(point, new, state.ds, lambda p: float(p.y[-1]) - edge)
     y_edge = found.y.copy()
-    y_edge[2] = edge  # drop the residual of Brent's method (below 1e-12)
+    y_edge[-1] = edge  # drop the residual of Brent's method (below 1e-12)
     state.ds = found.arclength - point.arclength
     state.end = "end" if edge == run.w_end else "start"
     return _Point(y_edge, found.tangent, found.evaluation, found.arclength)
+
+
+def _clip_to_parent(
+    run: _Continuation, state: ContinuationState, point: _Point, new: _Point
+) -> _Point:
+    """A period-doubled branch (a map of 2n periods watching its state after n:
+    :attr:`PeriodMap.check`) ends where it returns to a period-n orbit: the offset
+    ``P^n(x) - x`` reverses there (the pitchfork of ``P^{2n}`` at the parent's period
+    doubling: beyond it lies the other half of the branch, the same orbits n periods
+    on), located by Brent's method, or vanishes (the step fell onto the parent's branch).
+    The branch ends ("reconnected") at that point."""
+    if run.period.check == 0 or len(state.points) < 2:
+        return new
+    before, after = point.evaluation.offset, new.evaluation.offset
+    if float(np.max(np.abs(after))) <= RETURN_TOLERANCE:
+        state.end = "reconnected"
+        return new
+    if float(before @ after) >= 0.0:
+        return new
+    found = run.locate(point, new, state.ds, lambda p: float(p.evaluation.offset @ before))
+    state.ds = found.arclength - point.arclength
+    state.end = "reconnected"
+    return found
 
 
 def _detect(
@@ -666,7 +738,8 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     multipliers = np.empty((len(ordered), run.period.size), dtype=complex)
     for i, (point, _) in enumerate(ordered):
         w = float(point.y[-1])
-        _, reading = oscillator.measure(run.period.state(point.y[:-1], w), w, 1)
+        state_at = run.period.state(point.y[:-1], w)
+        _, reading = oscillator.measure(state_at, w, run.periods)
         readings.append(reading)
         multipliers[i] = sorted_multipliers(point.evaluation.monodromy)
     candidates = [i for i, (_, kind) in enumerate(ordered) if kind is not None]
@@ -680,7 +753,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     def stack(name: str) -> np.ndarray:
         return np.array([getattr(r, name) for r in readings])
 
-    steps_measured = len(ordered) * oscillator.steps_per_period
+    steps_measured = len(ordered) * oscillator.steps_per_period * run.periods
     return Branch(
         sigma=oscillator.sigma,
         frequency_ratio=np.array([p.y[-1] for p, _ in ordered]),
@@ -699,6 +772,9 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
         end=state.end,
         bridges=state.bridges,
         steps=steps + steps_measured,
+        period_multiple=run.periods,
+        y=np.array([p.y for p, _ in ordered]),
+        tangent=np.array([p.tangent for p, _ in ordered]),
     )
 
 
@@ -759,6 +835,129 @@ def _fold_clusters(
     return sorted(kept)
 
 
+def doubling_direction(period: PeriodMap, monodromy: np.ndarray) -> np.ndarray:
+    """The unit eigenvector ``v`` (in the scaled coordinates z) of the multiplier nearest
+    -1 of an n-period monodromy, oriented so that its first component (q at excitation
+    phase 0 over Q) is positive (its largest component where that one vanishes)."""
+    mu, vectors = np.linalg.eig(monodromy)
+    k = int(np.argmin(np.abs(mu + 1.0)))
+    v = period.inverse @ np.real(vectors[:, k])
+    v /= np.linalg.norm(v)
+    lead = v[0] if abs(v[0]) > 1e-9 else v[int(np.argmax(np.abs(v)))]
+    return v if lead > 0.0 else -v
+
+
+def continue_doubled(
+    oscillator: Oscillator,
+    parent: Branch,
+    index: int,
+    w_begin: float,
+    w_end: float,
+    parameters: ContinuationParameters = DEFAULT_PARAMETERS,
+) -> Branch:
+    """Continue the period-2n branch born at the period doubling ``parent.bifurcations
+    [index]`` of a period-n branch.
+
+    At the period doubling ``(z_PD, w_PD)`` the n-period monodromy has a multiplier -1,
+    eigenvector ``v``; for the 2n-period map ``P^{2n}`` that point is a pitchfork: the
+    period-n branch (tangent ``t_n``) crosses the period-2n branch, whose tangent there is
+    ``(v, 0)`` (w is stationary, the orbits' difference from the period-n one grows as
+    ``sqrt(|w - w_PD|)``). Branch switching: the first point is the period doubling
+    itself (its multipliers for ``P^{2n}`` are the squares of the parent's), with tangent
+    ``(v, 0)``; the first step predicts ``y_PD + ds (v, 0)`` and corrects in the
+    hyperplane normal to ``(v, 0)`` made orthogonal to ``t_n`` (through the predictor),
+    which meets the period-n branch only O(sqrt(ds)) away, so that Newton does not fall
+    back onto it (a step that does, its orbit repeating after n periods, is halved).
+    Thereafter the continuation goes on as :func:`continue_branch`'s, with the Floquet
+    multipliers, folds and period doublings of the 2n-period orbits.
+
+    Which half. The two halves of the pitchfork, ``x_PD + s v`` and ``x_PD - s v``, are the
+    same orbits n periods apart; the half followed is the one along ``+v``, ``v`` oriented
+    with a positive displacement component (:func:`doubling_direction`): the orbit whose
+    q at excitation phase 0 starts above the period-n orbit's.
+
+    It ends at the span's ends (``"end"``/``"start"``: ``w_end``, ``w_begin``), or where it
+    returns to a period-n orbit (``"reconnected"``, :func:`_clip_to_parent`: at the other
+    period doubling of a bubble, say), or as :func:`continue_branch`'s does.
+    """
+    found = parent.bifurcations[index]
+    n = parent.period_multiple
+    run = _Continuation(oscillator, w_begin, w_end, parameters, None, 2 * n, n)
+    steps_before = oscillator.steps
+    y_pd = parent.y[found.point].copy()
+    w_pd = float(y_pd[-1])
+    parent_map = PeriodMap(oscillator, n)
+    v = doubling_direction(run.period, parent_map(y_pd[:-1], w_pd).monodromy)
+    t0 = np.append(v, 0.0)
+    first = _Point(y_pd, t0, run.period(y_pd[:-1], w_pd), 0.0)
+    t_parent = parent.tangent[found.point]
+    normal = t0 - float(t0 @ t_parent) * t_parent
+    normal /= np.linalg.norm(normal)
+    trace = np.empty((parameters.max_points, 2 * y_pd.size))
+    trace[0] = np.concatenate((y_pd, t0))
+    state = ContinuationState([first], trace, parameters.first_step)
+    while True:
+        new, _ = run.correct(first, state.ds, normal)
+        if new is not None:
+            away = float(np.max(np.abs(new.evaluation.offset)))
+            if away > 0.5 * state.ds * float(np.max(np.abs(v))):
+                break  # a 2n-periodic orbit, not the parent's
+        state.ds *= parameters.shrink
+        if state.ds < parameters.min_step:
+            state.end = "stalled"
+            break
+    if not state.end:
+        new = _clip_to_span(run, state, first, new)
+        _detect(run, state, first, new, False)
+        state.trace[1] = np.concatenate((new.y, new.tangent))
+        state.points.append(new)
+    while not state.end:
+        iterate(run, state)
+    return _assemble(run, state, oscillator.steps - steps_before)
+
+
+def follow_doublings(
+    oscillator: Oscillator,
+    primary: Branch,
+    w_begin: float,
+    w_end: float,
+    parameters: ContinuationParameters = DEFAULT_PARAMETERS,
+    progress: Progress | None = None,
+) -> list[Branch]:
+    """The period-doubled branches of a primary branch, recursively: from every period
+    doubling of a period-n branch with ``2 n <= 8`` (:data:`MAX_PERIOD_MULTIPLE`) the
+    period-2n branch (:func:`continue_doubled`), each with ``parent`` (the index in
+    ``[primary, *returned]``) and ``parent_bifurcation`` set. A period doubling that a
+    branch already reconnected at (the other end of a bubble) starts none. ``progress``
+    receives :data:`POINTS_PER_PROGRESS` units in all, as the branches finish."""
+    family = [primary]
+    reached: list[tuple[int, np.ndarray]] = []  # (parent, y) where a branch reconnected
+    budget = POINTS_PER_PROGRESS
+    i = 0
+    while i < len(family):
+        parent = family[i]
+        doublings = []
+        if 2 * parent.period_multiple <= MAX_PERIOD_MULTIPLE:
+            doublings = [j for j, f in enumerate(parent.bifurcations) if f.kind == KINDS[1]]
+        for count, j in enumerate(doublings):
+            at = parent.y[parent.bifurcations[j].point]
+            if any(p == i and np.max(np.abs(y - at)) <= SAME_POINT for p, y in reached):
+                continue
+            child = continue_doubled(oscillator, parent, j, w_begin, w_end, parameters)
+            child.parent, child.parent_bifurcation = i, j
+            family.append(child)
+            if child.end == "reconnected":
+                reached.append((i, child.y[-1]))
+            if progress is not None:
+                share = budget // (len(doublings) - count + len(family) - i)
+                progress(share)
+                budget -= share
+        i += 1
+    if progress is not None and budget > 0:
+        progress(budget)
+    return family[1:]
+
+
 def run_branch(
     scene: Scene,
     progress: Progress | None = None,
@@ -785,12 +984,20 @@ def run_branch(
     """
     check_stability(scene)
     w_begin, w_end = start_end(scene)
+    follow = scene.branch.follow_period_doubling
     branches = []
+    followed: list[list[Branch]] | None = [] if follow else None
     steps = 0
     for sigma in scene.excitation.sigma:
         oscillator = Oscillator(scene, sigma)
         try:
             branch = continue_branch(oscillator, w_begin, w_end, progress, parameters)
+            if followed is not None:
+                children = follow_doublings(
+                    oscillator, branch, w_begin, w_end, parameters, progress
+                )
+                followed.append(children)
+                steps += sum(child.steps for child in children)
         except HertzsweepError as exc:
             raise exc.with_context(f"{scene.source}: branch") from None
         branches.append(branch)
@@ -802,12 +1009,15 @@ def run_branch(
         start_frequency_ratio=w_begin,
         end_frequency_ratio=w_end,
         steps=steps,
+        followed=followed,
     )
 
 
 def progress_total(scene: Scene) -> int:
-    """Progress units :func:`run_branch` reports for a scene."""
-    return POINTS_PER_PROGRESS * len(scene.excitation.sigma)
+    """Progress units :func:`run_branch` reports for a scene: per sigma, the primary
+    branch's and, following period doublings, as many for the doubled branches."""
+    per_sigma = POINTS_PER_PROGRESS * (2 if scene.branch.follow_period_doubling else 1)
+    return per_sigma * len(scene.excitation.sigma)
 
 
 __all__ = [
@@ -818,6 +1028,8 @@ __all__ = [
     "ContinuationState",
     "KINDS",
     "continue_branch",
+    "continue_doubled",
+    "follow_doublings",
     "progress_total",
     "run_branch",
     "start_end",

@@ -67,12 +67,16 @@ class Evaluation:
         ``M = dP/dx`` (in the method's state coordinates).
     ok : bool
         The period ended finite and within the stability limit.
+    offset : float[size]
+        ``z`` of the state after :attr:`PeriodMap.check` periods minus ``z`` (zeros
+        without a check).
     """
 
     residual: np.ndarray
     jacobian: np.ndarray
     monodromy: np.ndarray
     ok: bool
+    offset: np.ndarray | None = None
 
     @property
     def error(self) -> float:
@@ -143,14 +147,26 @@ def sorted_multipliers(monodromy: np.ndarray) -> np.ndarray:
 
 
 class PeriodMap:
-    """The one-period map of an oscillator in scaled coordinates, with its exact Jacobian.
+    """The n-period map ``P^n`` of an oscillator in scaled coordinates, with its exact
+    Jacobian (``periods = n``; 1 by default: the one-period map).
 
-    Every evaluation integrates one period with the tangent-linear scheme and adds
-    ``steps_per_period`` to ``oscillator.steps``.
+    ``P^n`` is n one-period maps in a row, each the method's compiled period with its
+    exact tangent (:meth:`Oscillator.period_map`); the chain rule makes the n-period
+    monodromy the product ``M_n ... M_1`` of the one-period ones (each at its own state of
+    the orbit) and ``dP^n/dh`` the sum ``sum_k (M_n ... M_{k+1}) dP/dh|_k``: exact for every
+    method and model, as the one-period tangent is. The Floquet multipliers of an
+    n-periodic orbit are the eigenvalues of that product. Every evaluation adds
+    ``n steps_per_period`` to ``oscillator.steps``.
+
+    ``check`` (a divisor of n, default none): the evaluation also reports how far the
+    state is from repeating after ``check`` periods (:attr:`Evaluation.offset`), which a
+    period-doubled branch watches to see it return to its parent's branch.
     """
 
-    def __init__(self, oscillator: Oscillator) -> None:
+    def __init__(self, oscillator: Oscillator, periods: int = 1, check: int = 0) -> None:
         self.oscillator = oscillator
+        self.periods = int(periods)
+        self.check = int(check)
         self.scale = orbit_scale(oscillator.sigma, oscillator.zeta)
         self.shape = oscillator.method.basis(oscillator.steps_per_period)
         self.basis = self.scale * self.shape  # x = basis @ z
@@ -175,20 +191,43 @@ class PeriodMap:
         half = self.size // 2
         return State(x[:half].copy(), x[half:].copy(), h)
 
-    def __call__(self, z: np.ndarray, frequency_ratio: float) -> Evaluation:
+    def advance(self, x: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
+        """``P^n(x)`` and its derivative ``d P^n / d(x, h)`` (float[size, size + 1]) from
+        ``x`` at step ``h``: n compiled periods, their tangents chained. Returns ``(end,
+        derivative, status, offset)``, ``offset`` the state after ``check`` periods minus
+        ``x`` (zeros without a check)."""
         osc = self.oscillator
         n = self.size
+        state = self._state(x, h)
+        offset = np.zeros(n)
+        total = self._derivative
+        status = OK
+        for k in range(self.periods):
+            state, status = osc.period_map(state, self._derivative)
+            one = self._derivative
+            if k == 0:
+                total = one.copy()
+            else:  # the chain rule: d x_{k+1} = M_k d x_k + (dP/dh)_k dh
+                total = one[:, :n] @ total
+                total[:, n] += one[:, n]
+            if status != OK:
+                break
+            if k + 1 == self.check:
+                offset = self.vector(state) - x
+        return self.vector(state), total, status, offset
+
+    def __call__(self, z: np.ndarray, frequency_ratio: float) -> Evaluation:
+        n = self.size
         x = self.basis @ z
-        h = osc.step(frequency_ratio)
-        end, status = osc.period_map(self._state(x, h), self._derivative)
-        derivative = self._derivative.copy()
-        monodromy = derivative[:, :n]
-        residual = (self.vector(end) - x) / self.scale
+        h = self.oscillator.step(frequency_ratio)
+        end, derivative, status, offset = self.advance(x, h)
+        monodromy = derivative[:, :n].copy()
+        residual = (end - x) / self.scale
         jacobian = np.empty((n, n + 1))
         jacobian[:, :n] = (monodromy - np.eye(n)) @ self.basis / self.scale
         jacobian[:, n] = derivative[:, n] * (-h / frequency_ratio) / self.scale  # dh/dw = -h/w
         ok = status == OK and bool(np.all(np.isfinite(residual)))
-        return Evaluation(residual, jacobian, monodromy, ok)
+        return Evaluation(residual, jacobian, monodromy, ok, self.inverse @ offset)
 
 
 def newton_settings(
@@ -218,7 +257,8 @@ def newton(
     max_iterations: int = MAX_NEWTON_ITERATIONS,
 ) -> Orbit:
     """Newton on ``P(x) = x`` at fixed w from ``state`` (at that frequency's step),
-    compiled (:func:`hertzsweep.kernels.tangent.newton`): one call per solve.
+    compiled (:func:`hertzsweep.kernels.tangent.newton`): one call per solve; on
+    ``P^n(x) = x`` for a map of n > 1 periods (numpy's solve, each period compiled).
 
     Parameters
     ----------
@@ -229,7 +269,7 @@ def newton(
         monotonicity test in the spirit of Deuflhard's, on the affine-invariant corrections
         rather than on the residuals, which may rise once on the way in).
     """
-    if period.size != 2:
+    if period.size != 2 or period.periods != 1:
         return _newton(period, state, frequency_ratio, monotone, max_iterations)
     osc = period.oscillator
     settings = newton_settings(period, monotone, max_iterations)
@@ -250,9 +290,10 @@ def newton(
 def _newton(
     period: PeriodMap, state: State, frequency_ratio: float, monotone: bool, max_iterations: int
 ) -> Orbit:
-    """:func:`newton` for a state of more than two numbers (the ball model's four): the
-    compiled Newton's iteration (:func:`hertzsweep.kernels.tangent.newton`, its tolerance
-    and monotonicity test) with numpy's solve, each period compiled."""
+    """:func:`newton` for a state of more than two numbers (the ball model's four) or a
+    map of more than one period: the compiled Newton's iteration
+    (:func:`hertzsweep.kernels.tangent.newton`, its tolerance and monotonicity test) with
+    numpy's solve, each period compiled."""
     z = period.coordinates(state)
     residuals: list[float] = []
     monodromy = np.full((period.size, period.size), np.nan)
@@ -282,7 +323,8 @@ def _newton(
 
 
 def mismatch(period: PeriodMap, before: State, after: State) -> float:
-    """``|x(T) - x(0)|_inf / Q``: how far a state is from repeating after one period."""
+    """``|x(nT) - x(0)|_inf / Q``: how far a state is from repeating after the map's
+    periods (``after`` is ``before`` that many periods on)."""
     return float(np.max(np.abs(period.vector(after) - period.vector(before)))) / period.scale
 
 
@@ -302,7 +344,7 @@ def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods:
     stable orbit (its residuals not kept), or, where none was reached (e.g. after a
     period doubling), the state where the integration stopped, not converged.
     """
-    if period.size != 2:
+    if period.size != 2 or period.periods != 1:
         return _settle(period, state, frequency_ratio, max_periods)
     osc = period.oscillator
     monodromy = np.zeros((2, 2))
@@ -324,16 +366,18 @@ def settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods:
 
 
 def _settle(period: PeriodMap, state: State, frequency_ratio: float, max_periods: int) -> Orbit:
-    """:func:`settle` for a state of more than two numbers: the compiled transient's steps
-    (blocks of :data:`TRANSIENT_BLOCK` periods to a one-period mismatch of
-    :data:`TRANSIENT_TOLERANCE`, then monotone Newton on a stable orbit or on), each block
-    one compiled call."""
+    """:func:`settle` for a state of more than two numbers or a map of n > 1 periods: the
+    compiled transient's steps (blocks of :data:`TRANSIENT_BLOCK` periods, a whole number
+    of n, to an n-period mismatch of :data:`TRANSIENT_TOLERANCE`, then monotone Newton on
+    a stable orbit or on), each block one compiled call."""
     osc = period.oscillator
+    n = period.periods
+    block = -(-TRANSIENT_BLOCK // n) * n
     integrated = 0
     while integrated < max_periods:
-        count = min(TRANSIENT_BLOCK, max_periods - integrated)
-        state = osc.advance(state, frequency_ratio, count - 1)
-        after = osc.advance(state, frequency_ratio, 1)
+        count = max(n, min(block, max_periods - integrated) // n * n)
+        state = osc.advance(state, frequency_ratio, count - n)
+        after = osc.advance(state, frequency_ratio, n)
         integrated += count
         close = mismatch(period, state, after) <= TRANSIENT_TOLERANCE
         state = after
@@ -361,6 +405,11 @@ def shooting_dwell(
     """One stepped-sine dwell by shooting: the drop-in for :meth:`Oscillator.dwell` that
     :func:`hertzsweep.sweep.run_sweep` uses when ``[sweep] steady_state = "shooting"``.
 
+    With ``[sweep] period_multiple = n`` the orbit sought is a fixed point of the n-period
+    map ``P^n`` (:class:`PeriodMap`): a period-n orbit where the sweep's state settles on
+    one (a period-1 orbit is one too, its multipliers the n-th powers), measured over n
+    periods.
+
     Newton from the previous steady state (retuned to this frequency's step); on a stable
     orbit, measure one period of it (:data:`CONVERGED_PERIODS`). Where Newton fails or lands on an
     unstable orbit (a fold was passed), integrate the transient to the new attractor and
@@ -372,10 +421,11 @@ def shooting_dwell(
     tuple
         ``(state, reading, settled)`` as :meth:`Oscillator.dwell`.
     """
-    period = PeriodMap(oscillator)
+    period = PeriodMap(oscillator, oscillator.scene.sweep.period_multiple)
     state = oscillator.retune(state, frequency_ratio)
     orbit = find_orbit(period, state, frequency_ratio)
-    measured = CONVERGED_PERIODS if orbit.stable else oscillator.scene.sweep.measure_periods
+    stable = CONVERGED_PERIODS * period.periods
+    measured = stable if orbit.stable else oscillator.scene.sweep.measure_periods
     state, reading = oscillator.measure(orbit.state, frequency_ratio, measured)
     return state, reading, orbit.stable
 
@@ -398,8 +448,9 @@ def shooting_walk(oscillator: Oscillator, state: State, frequencies: np.ndarray)
     :func:`shooting_dwell` does, and the compiled loop resumes. Yields ``(positions,
     block, settled)`` as a strategy's walk.
     """
-    period = PeriodMap(oscillator)
-    if period.size != 2:  # the ball model: one dwell at a time (Newton in numpy)
+    period = PeriodMap(oscillator, oscillator.scene.sweep.period_multiple)
+    if period.size != 2 or period.periods != 1:  # the ball model, or orbits of n periods:
+        # one dwell at a time (Newton in numpy)
         yield from dwell_by_dwell(shooting_dwell, oscillator, state, frequencies)
         return
     n = oscillator.steps_per_period

@@ -127,6 +127,7 @@ ATTRIBUTE_ORDER = (  # the order of the global attributes (ordered_attributes); 
     "sweep_*",
     "lockin_*",
     "model_*",
+    "branch_follow_period_doubling",
     # the solver
     "solver_*",
     "steps_per_period",
@@ -521,22 +522,48 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
     model, 4 for the ball model) and
     ``bifurcation`` (located bifurcations in arclength order, padded with NaN, ``""``
     and -1; at least one slot).
+
+    Following period doublings (``result.follows_period_doubling``), every variable on
+    ``sigma`` gains a ``branch`` dimension after it (the sigma's branches: the primary
+    first, then the period-doubled ones in the order they were started; padded as the
+    points are, ``period_multiple`` 0 on a padding branch), with ``period_multiple``,
+    ``parent`` and ``parent_bifurcation`` on ``(sigma, branch)`` (-1 on primaries) and
+    ``bifurcation_period_multiple``. Without it the layout is that of a single branch per
+    sigma, as before period-doubled branches existed.
     """
     constants = derive(scene.rig)
     f0 = constants.natural_frequency
-    branches = result.branches
-    n_points = max(branch.size for branch in branches)
-    n_found = max(1, max(len(branch.bifurcations) for branch in branches))
+    follow = result.follows_period_doubling
+    families = [result.family(s) for s in range(len(result.branches))]
+    n_branches = max(len(family) for family in families)
+    # one row per (sigma, branch), None where a sigma has fewer branches
+    branches = list(result.branches)
+    if follow:
+        branches = [
+            family[b] if b < len(family) else None for family in families for b in range(n_branches)
+        ]
+    present = [branch for branch in branches if branch is not None]
+    n_points = max(branch.size for branch in present)
+    n_found = max(1, max(len(branch.bifurcations) for branch in present))
+    lead = ("sigma", "branch") if follow else ("sigma",)
+    shape = (len(families), n_branches) if follow else (len(families),)
+
+    def shaped(values: np.ndarray) -> np.ndarray:
+        return values.reshape(shape + values.shape[1:])
 
     def per_point(name: str, fill: Any = np.nan, dtype: Any = float) -> np.ndarray:
-        return _padded([getattr(branch, name) for branch in branches], n_points, fill, dtype)
+        rows = [getattr(b, name) if b is not None else _blank(present[0], name) for b in branches]
+        return shaped(_padded(rows, n_points, fill, dtype))
 
     def per_bifurcation(name: str, fill: Any = np.nan, dtype: Any = float) -> np.ndarray:
-        rows = [[getattr(found, name) for found in branch.bifurcations] for branch in branches]
-        return _padded(rows, n_found, fill, dtype)
+        rows = [[getattr(f, name) for f in (b.bifurcations if b else [])] for b in branches]
+        return shaped(_padded(rows, n_found, fill, dtype))
 
-    at_point = ("sigma", "point")
-    at_found = ("sigma", "bifurcation")
+    def per_branch(get: Callable[[Any], Any], fill: Any, dtype: Any) -> np.ndarray:
+        return shaped(np.array([get(b) if b is not None else fill for b in branches], dtype=dtype))
+
+    at_point = (*lead, "point")
+    at_found = (*lead, "bifurcation")
     w = per_point("frequency_ratio")
     multipliers = per_point("multipliers", np.nan + 0j, complex)
     found_w = per_bifurcation("frequency_ratio")
@@ -548,15 +575,25 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
         multiplier_imag=((*at_point, "multiplier"), multipliers.imag),
         stable=(at_point, per_point("stable", -1, np.int8)),
         arclength=(at_point, per_point("arclength")),
-        branch_complete=(("sigma",), np.array([b.complete for b in branches], dtype=np.int8)),
-        branch_end=(("sigma",), np.array([b.end for b in branches], dtype=object)),
-        branch_bridges=(("sigma",), np.array([b.bridges for b in branches], dtype=INDEX)),
+        branch_complete=(lead, per_branch(lambda b: b.complete, 0, np.int8)),
+        branch_end=(lead, per_branch(lambda b: b.end, "", object)),
+        branch_bridges=(lead, per_branch(lambda b: b.bridges, 0, INDEX)),
         bifurcation_frequency_ratio=(at_found, found_w),
         bifurcation_frequency=(at_found, found_w * f0),
         bifurcation_kind=(at_found, per_bifurcation("kind", "", object)),
         bifurcation_amplitude=(at_found, per_bifurcation("amplitude")),
         bifurcation_point=(at_found, per_bifurcation("point", -1, INDEX)),
     )
+    if follow:
+        data.update(
+            period_multiple=(lead, per_branch(lambda b: b.period_multiple, 0, INDEX)),
+            parent=(lead, per_branch(lambda b: b.parent, -1, INDEX)),
+            parent_bifurcation=(lead, per_branch(lambda b: b.parent_bifurcation, -1, INDEX)),
+            parent_frequency_ratio=(
+                lead,
+                per_branch(_parent_w(families, n_branches), np.nan, float),
+            ),
+        )
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "point": ("point", np.arange(n_points, dtype=INDEX), attrs("point")),
@@ -568,6 +605,8 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
         ),
         "bifurcation": ("bifurcation", np.arange(n_found, dtype=INDEX), attrs("bifurcation")),
     }
+    if follow:
+        coords["branch"] = ("branch", np.arange(n_branches, dtype=INDEX), attrs("branch"))
     title = (
         "Periodic orbits of a preloaded Hertzian contact by shooting and pseudo-arclength "
         "continuation"
@@ -583,6 +622,26 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
     }
     merge_attributes(ds, extra)
     return ds
+
+
+def _blank(like: Any, name: str) -> np.ndarray:
+    """A padding branch's (no points) array of a per-point field, shaped as ``like``'s."""
+    values = np.asarray(getattr(like, name))
+    return np.empty((0, *values.shape[1:]), dtype=values.dtype)
+
+
+def _parent_w(families: Sequence[Sequence[Any]], n_branches: int) -> Callable[[Any], float]:
+    """The frequency ratio of the period doubling a branch was started from (NaN for a
+    primary), looked up in its own sigma's family."""
+    owner = {id(b): family for family in families for b in family}
+
+    def w(branch: Any) -> float:
+        if branch.parent < 0:
+            return float("nan")
+        parent = owner[id(branch)][branch.parent]
+        return float(parent.bifurcations[branch.parent_bifurcation].frequency_ratio)
+
+    return w
 
 
 # --------------------------------------------------------------------------- accuracy

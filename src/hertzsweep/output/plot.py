@@ -525,25 +525,29 @@ def branch_figure(
     sigmas = ds.sigma.values
     windows = {k: phase_window(_panel_phases(ds, overlay, k)) for k in orders}
     kinds_seen: set[str] = set()
+    doubled = False
     for i in range(sigmas.size):
-        one = ds.isel(sigma=i)
-        w = one.frequency_ratio.values
-        runs = stability_segments(one.stable.values)
-        wrapped = _PHASE.get() == WRAPPED
-        for row, k in enumerate(orders):
-            panels = [(axes[row, 0], one.amplitude.sel(harmonic=k).values, False)]
-            if with_phase:
-                phase = drawn_phase(one.phase.sel(harmonic=k).values, windows[k])
-                panels.append((axes[row, 1], phase, wrapped))
-            for ax, y, breaks in panels:
-                for start, stop, stable in runs:
-                    ax.plot(
-                        *break_wraps(w[start:stop], y[start:stop], breaks),
-                        color=_colour(i),
-                        ls="-" if stable else ":",
-                        lw=2.0 if stable else 1.4,
-                    )
-                kinds_seen |= _mark_bifurcations(ax, one, y, _colour(i))
+        for one in _branches(ds.isel(sigma=i)):
+            multiple = int(one.period_multiple) if "period_multiple" in one else 1
+            doubled |= multiple > 1
+            width = 1.0 if multiple == 1 else 0.7  # period-doubled branches drawn thinner
+            w = one.frequency_ratio.values
+            runs = stability_segments(one.stable.values)
+            wrapped = _PHASE.get() == WRAPPED
+            for row, k in enumerate(orders):
+                panels = [(axes[row, 0], one.amplitude.sel(harmonic=k).values, False)]
+                if with_phase:
+                    phase = drawn_phase(one.phase.sel(harmonic=k).values, windows[k])
+                    panels.append((axes[row, 1], phase, wrapped))
+                for ax, y, breaks in panels:
+                    for start, stop, stable in runs:
+                        ax.plot(
+                            *break_wraps(w[start:stop], y[start:stop], breaks),
+                            color=_colour(i),
+                            ls="-" if stable else ":",
+                            lw=(2.0 if stable else 1.4) * width,
+                        )
+                    kinds_seen |= _mark_bifurcations(ax, one, y, _colour(i))
     flags: set[str] = set()
     if overlay is not None:
         flags = _overlay_sweep(axes, overlay, sigmas, orders, windows if with_phase else None)
@@ -555,6 +559,8 @@ def branch_figure(
         Line2D([], [], color="0.2", lw=2, label="stable"),
         Line2D([], [], color="0.2", lw=1.4, ls=":", label="unstable"),
     ]
+    if doubled:
+        handles.append(Line2D([], [], color="0.2", lw=1.4, label="period-doubled (thin)"))
     handles += [
         Line2D(
             [],
@@ -574,6 +580,18 @@ def branch_figure(
     axes[0, 0].legend(handles=handles, fontsize="small", loc="best")
     fig.suptitle(_title(ds, "Periodic orbits (shooting, continuation)"), fontsize="medium")
     return fig
+
+
+def _branches(one: xr.Dataset) -> list[xr.Dataset]:
+    """The branches of one sigma of a branch dataset: itself, or with a ``branch``
+    dimension (period-doubled branches followed) each branch that has points."""
+    if "branch" not in one.dims:
+        return [one]
+    return [
+        one.isel(branch=b)
+        for b in range(one.sizes["branch"])
+        if int(one.period_multiple.values[b]) > 0
+    ]
 
 
 def _mark_bifurcations(ax, one: xr.Dataset, y: np.ndarray, colour: str) -> set[str]:

@@ -24,6 +24,7 @@ BRANCH_ENDS = {  # Branch.end -> why a branch stopped short
     "stalled": "the continuation stalled",
     "retraced": "it ran back onto itself past a corner of the map",
     "max-points": "too many points",
+    "reconnected": "it returned to its parent's branch",
 }
 MAX_TABLE_ROWS = 60  # the jump table of a study is printed up to this many grid points
 ROUGH_EXPONENT = 1.0  # contact damping d^n with n below this is not smooth at d = 0
@@ -102,6 +103,26 @@ TRACE_SUMMARY = (  # the per-sigma variables of a trace's summary line
 
 
 # --------------------------------------------------------------------------- branch
+def _doubled_lines(result: BranchResult, primary: Any) -> list[str]:
+    """One line per period-doubled branch of a primary's sigma (when followed): its period,
+    where it started, its points and how it ended, and its own bifurcations."""
+    if not result.follows_period_doubling:
+        return []
+    family = result.family(next(i for i, b in enumerate(result.branches) if b is primary))
+    lines = []
+    for index, branch in enumerate(family[1:], start=1):
+        start = family[branch.parent].bifurcations[branch.parent_bifurcation].frequency_ratio
+        lines.append(
+            f"  branch {index}: period {branch.period_multiple} from w = {start:.6f} (branch "
+            f"{branch.parent}), {branch.size} points, {int(branch.stable.sum())} stable, "
+            f"ended: {BRANCH_ENDS.get(branch.end, branch.end)}"
+        )
+        lines += [
+            f"    {found.kind:15s} w = {found.frequency_ratio:.6f}" for found in branch.bifurcations
+        ]
+    return lines
+
+
 def branch_summary(result: BranchResult, ds: Any) -> str:
     """Per sigma: points, stable share, peak H1 and the located bifurcations; a caution
     where contact damping with n < 1 meets loss of contact."""
@@ -129,6 +150,7 @@ def branch_summary(result: BranchResult, ds: Any) -> str:
                 f"  {found.kind:15s} w = {found.frequency_ratio:.6f}  H1 = {found.amplitude:.4f}  "
                 f"multiplier {mu.real:+.6f}{mu.imag:+.6f}j"
             )
+        lines += _doubled_lines(result, branch)
     law, exponent = ds.attrs.get("damping_law"), ds.attrs.get("damping_exponent", math.inf)
     rough = law == "contact" and float(exponent) < ROUGH_EXPONENT
     if rough and any(branch.contact_loss_fraction.max() > 0 for branch in result.branches):
