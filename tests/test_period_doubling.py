@@ -274,3 +274,23 @@ def test_branch_follow_pd_command_and_rerun(tmp_path, capsys):
     assert a.sizes["branch"] == 3 and a.attrs["branch_follow_period_doubling"] == 1
     np.testing.assert_array_equal(a.amplitude.values, b.amplitude.values)
     assert run_cli(["plot", out, "-o", tmp_path / "pd.png"], capsys)[0] == 0
+
+
+def test_a_period_2_branch_that_returns_to_its_parent_ends_there():
+    """Down to w = 0.5 the period-2 branch from w_PD = 2.006103 turns at a fold near
+    w = 0.527 and comes back to the period-1 branch at the other period doubling, 1.993025:
+    it ends there, on that very point, with no fold reported at that pitchfork, and no
+    second branch is started from it."""
+    scene = pd_scene(**{"sweep.start": 0.5})
+    result = run_branch(scene)
+    family = result.family(0)
+    primary, child = family[0], family[1]
+    assert len(family) == 2 and child.end == "reconnected"
+    other = primary.bifurcations[1]
+    assert round(other.frequency_ratio, 6) == W_PD[1]
+    np.testing.assert_array_equal(child.y[-1], primary.y[other.point])
+    # one fold, of an orbit in flight 89 % of the time: where grazing steps make the scheme's
+    # branch zigzag, reported once at the extreme w of the cluster, 0.5268 or 0.5279 by path
+    assert [f.kind for f in child.bifurcations] == ["fold"]
+    assert 0.525 < child.bifurcations[0].frequency_ratio < 0.53
+    assert child.stable.any() and not child.stable.all()  # stable until the fold

@@ -141,9 +141,8 @@ class SweepConfig:
 
 @dataclass(frozen=True)
 class BranchConfig:
-    """The continuation of ``hertzsweep branch`` beyond the scene's own tables: whether
-    the period-doubled branches are followed from every period-doubling point (down to
-    period :data:`MAX_PERIOD_MULTIPLE`)."""
+    """How ``hertzsweep branch`` continues: whether it also follows the period-doubled
+    branches from every period doubling (down to period :data:`MAX_PERIOD_MULTIPLE`)."""
 
     follow_period_doubling: bool = False
 

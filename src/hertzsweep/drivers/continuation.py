@@ -295,6 +295,7 @@ class _Continuation:
         self.oscillator = oscillator
         self.periods = int(periods)
         self.period = PeriodMap(oscillator, periods, check)
+        self.doublings: list[np.ndarray] = []  # (z, w) of the parent's period doublings
         self.w_begin = w_begin
         self.w_end = w_end
         self.low, self.high = min(w_begin, w_end), max(w_begin, w_end)
@@ -563,7 +564,7 @@ def iterate(run: _Continuation, state: ContinuationState) -> None:
         return
     new = _clip_to_span(run, state, point, new)
     new = _clip_to_parent(run, state, point, new)
-    _detect(run, state, point, new, kinked)
+    _detect(run, state, point, new, kinked, fold=state.end != "reconnected")
     _mark_kinked_fold(state, new)
     state.trace[len(state.points)] = np.concatenate((new.y, new.tangent))
     state.points.append(new)
@@ -643,8 +644,10 @@ def _clip_to_parent(
     :attr:`PeriodMap.check`) ends where it returns to a period-n orbit: the offset
     ``P^n(x) - x`` reverses there (the pitchfork of ``P^{2n}`` at the parent's period
     doubling: beyond it lies the other half of the branch, the same orbits n periods
-    on), located by Brent's method, or vanishes (the step fell onto the parent's branch).
-    The branch ends ("reconnected") at that point."""
+    on), or vanishes (the step fell onto the parent's branch). The branch ends
+    ("reconnected") at the parent's period doubling the step crossed (the nearest to it
+    of ``run.doublings``: the pitchfork of ``P^{2n}`` is singular, where Brent's corrected
+    points would fail), else where Brent's method puts the reversal."""
     if run.period.check == 0 or len(state.points) < 2:
         return new
     before, after = point.evaluation.offset, new.evaluation.offset
@@ -653,23 +656,46 @@ def _clip_to_parent(
         return new
     if float(before @ after) >= 0.0:
         return new
+    state.end = "reconnected"
+    reach = 2.0 * float(np.linalg.norm(new.y - point.y)) + SAME_POINT
+    for y in run.doublings:  # the parent's period doublings: the step crossed one
+        if _distance_to_chord(y, point.y, new.y) <= reach:
+            arclength = point.arclength + float(np.linalg.norm(y - point.y))
+            evaluation = run.period(y[:-1], float(y[-1]))
+            state.ds = arclength - point.arclength
+            return _Point(y.copy(), new.tangent, evaluation, arclength)
     found = run.locate(point, new, state.ds, lambda p: float(p.evaluation.offset @ before))
     state.ds = found.arclength - point.arclength
-    state.end = "reconnected"
     return found
 
 
+def _distance_to_chord(y: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """The distance from ``y`` to the segment ``a -> b``."""
+    chord = b - a
+    along = float(np.clip((y - a) @ chord / max(float(chord @ chord), 1e-300), 0.0, 1.0))
+    return float(np.linalg.norm(a + along * chord - y))
+
+
 def _detect(
-    run: _Continuation, state: ContinuationState, point: _Point, new: _Point, kinked: bool
+    run: _Continuation,
+    state: ContinuationState,
+    point: _Point,
+    new: _Point,
+    kinked: bool,
+    fold: bool = True,
 ) -> None:
     """Locate the bifurcations of the step ``point -> new``: sign changes of the test
     functions (:data:`TEST_FUNCTIONS`), into ``state.located``. Over a kink the fold's
     test function (the tangent's w component) says nothing: the new point is listed in
-    ``state.kinks`` and judged by w instead (:func:`_mark_kinked_fold`)."""
+    ``state.kinks`` and judged by w instead (:func:`_mark_kinked_fold`). Without ``fold``
+    (the step that reconnects a period-doubled branch to its parent's: w turns at that
+    pitchfork, which is no saddle-node) folds are not sought."""
     before = len(state.points) - 1
     for kind, function in TEST_FUNCTIONS.items():
         if kind == "neimark-sacker" and run.oscillator.zeta == 0.0:
             continue  # undamped: det(M) = 1 identically, every orbit is neutral
+        if kind == "fold" and not fold:
+            continue
         if kind == "fold" and kinked:
             state.kinks.append(before + 1)
             continue
@@ -883,6 +909,7 @@ def continue_doubled(
     found = parent.bifurcations[index]
     n = parent.period_multiple
     run = _Continuation(oscillator, w_begin, w_end, parameters, None, 2 * n, n)
+    run.doublings = [parent.y[f.point] for f in parent.bifurcations if f.kind == KINDS[1]]
     steps_before = oscillator.steps
     y_pd = parent.y[found.point].copy()
     w_pd = float(y_pd[-1])
