@@ -181,6 +181,7 @@ def test_period_2_orbits_repeat_after_two_periods_and_not_one(followed):
     oscillator = Oscillator(scene, SIGMA)
     period = PeriodMap(oscillator, 2)
     for child in result.family(0)[1:]:
+        assert child.size >= 10
         for y in child.y[1:]:  # the first point is the period doubling: a period-1 orbit
             w = float(y[-1])
             state = period.state(y[:-1], w)
