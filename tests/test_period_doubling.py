@@ -295,3 +295,12 @@ def test_a_period_2_branch_that_returns_to_its_parent_ends_there():
     assert [f.kind for f in child.bifurcations] == ["fold"]
     assert 0.525 < child.bifurcations[0].frequency_ratio < 0.53
     assert child.stable.any() and not child.stable.all()  # stable until the fold
+
+
+def test_hs_branch_takes_the_option():
+    import hertzsweep as hs
+
+    scene = pd_scene(**{"branch.follow_period_doubling": False})
+    ds = hs.branch(scene, follow_period_doubling=True)
+    assert ds.sizes["branch"] == 3 and "follow_period_doubling=True" in ds.attrs["history"]
+    assert "branch" not in hs.branch(scene).dims
