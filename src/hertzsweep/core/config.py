@@ -130,6 +130,7 @@ class SweepConfig:
     max_settle_periods: int = 5000
     jump_threshold: float = 0.3
     steady_state: str = "settle"
+    initial_state: tuple[float, float] | None = None  # (q, q') of each sweep's first dwell
 
     @property
     def frequency_ratios(self) -> np.ndarray:
@@ -282,6 +283,8 @@ class Scene:
         for table in CLASSES:
             for key, value in asdict(getattr(self, table)).items():
                 if (table, key) in BUDGET_KEYS or not self._shows(table, key):
+                    continue
+                if (table, key) in UNSET_LEFT_OUT and value is None:
                     continue
                 bare = table == "rig" or (table, key) == ("solver", "steps_per_period")
                 name = key if bare else f"{table}_{key}"  # SPEC: damping_ratio, steps_per_period
@@ -463,6 +466,16 @@ def _fraction(source: str, key: str, value: Any) -> float:
     return x
 
 
+def _initial_state(source: str, key: str, value: Any) -> tuple[float, float]:
+    """``[q, dq]``: two finite numbers, the state a sweep's first dwell starts from."""
+    if not isinstance(value, list) or len(value) != 2:
+        raise ConfigError(
+            source, key, f"expected two numbers [q, dq] (displacement, velocity), got {value!r}"
+        )
+    q, dq = (_number(source, key, v) for v in value)
+    return q, dq
+
+
 Check = Callable[[str, str, Any], Any]
 
 SCHEMA: dict[str, dict[str, Check]] = {
@@ -500,6 +513,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "max_settle_periods": _positive_int,
         "jump_threshold": _fraction,
         "steady_state": lambda s, k, v: _string(s, k, v, STEADY_STATE_METHODS),
+        "initial_state": _initial_state,
     },
     "solver": {
         "method": lambda s, k, v: _string(s, k, v, SOLVER_METHODS),
@@ -533,6 +547,9 @@ CLASSES = {
 # that a sine scene's datasets are those it gave before random excitation existed
 RANDOM_KEYS = {("excitation", key) for key in ("kind", "rms", "band", "seed")}
 RANDOM_TABLES = ("random",)
+# Optional keys whose attribute is left out while unset (a scene without them gives the
+# attributes it gave before they existed)
+UNSET_LEFT_OUT = {("sweep", "initial_state")}
 # What each key of SCHEMA sets, one line each ([unit] first where it has one): the manual's
 # configuration reference is generated from SCHEMA, the dataclasses' defaults and this table
 DESCRIPTIONS: dict[str, str] = {
@@ -564,6 +581,10 @@ DESCRIPTIONS: dict[str, str] = {
     "counts as a jump",
     "sweep.steady_state": "settle (integrate until steady) or shooting (Newton on the "
     "one-period map)",
+    "sweep.initial_state": "[1] [q, q'] in the model's units (q = 3/2 (z - z_s)/z_s, "
+    "q' = dq/dtau): the state each sweep's first dwell (and a trace's approach) starts from "
+    "at excitation phase 0, as a tap on the rig would give (default: unset, at rest; the "
+    "single model only)",
     "solver.method": "the integration method: the paper's central difference (order 2) or rk4 "
     "with located contact crossings",
     "solver.steps_per_period": "integration steps per excitation period (above the stability "
@@ -738,6 +759,13 @@ def check_model(scene: Scene) -> None:
     with the central difference; the rk4 method serves the single model)."""
     if scene.model.kind != "ball":
         return
+    if scene.sweep.initial_state is not None:
+        raise ConfigError(
+            scene.source,
+            "sweep.initial_state",
+            "not available with model.kind = 'ball' (its state is two bodies'; it starts "
+            "from rest)",
+        )
     for table, key, value, why in BALL_MODEL_NEEDS:
         given = getattr(getattr(scene, table), key)
         if given != value:
