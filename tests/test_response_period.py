@@ -252,3 +252,18 @@ def test_default_config_has_no_initial_state():
     from hertzsweep.core.config import load_scene
 
     assert load_scene(CONFIGS / "default.toml").sweep.initial_state is None
+
+
+def test_trace_reads_the_period_and_says_so():
+    from hertzsweep.drivers.trace import run_trace
+    from hertzsweep.output.dataset import trace_dataset
+    from hertzsweep.output.summary import trace_summary
+
+    scene = subharmonic_scene()
+    result = run_trace(scene, 2.0, periods=4, branch="lower")
+    np.testing.assert_array_equal(result.response_period, [1, 2])  # sigma = 10 %, 30 %
+    ds = trace_dataset(result, scene).to_xarray()
+    assert ds.response_period.dims == ("sigma",)
+    lines = trace_summary(result, ds).splitlines()
+    assert lines[0].endswith("(settled)")
+    assert lines[1].endswith("(settled, not periodic: repeats every 2 periods)")

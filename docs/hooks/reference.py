@@ -262,6 +262,7 @@ CHECKS = {  # a validator of hertzsweep.core.config -> what it accepts
     "_directions": '`"up"`, `"down"`, or a list of one or both',
     "_settle": 'a whole number >= 0, or `"auto"`',
     "_harmonics": "a whole number >= 1, or a list of distinct ones",
+    "_initial_state": "two finite numbers `[q, dq]`",
 }
 
 
