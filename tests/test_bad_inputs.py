@@ -279,6 +279,23 @@ BAD_VALUES: dict[str, dict[str, Any]] = {
     "sweep.jump_threshold": kinds(*NUMBER, one=1.0),
     "sweep.steady_state": kinds(*CHOICE, string="bogus", empty="", list=["settle"]),
     "sweep.period_multiple": kinds(*WHOLE, nine=9, large=10**6),
+    "sweep.initial_state": kinds(
+        "negative",
+        "zero",
+        "nan",
+        "inf",
+        "string",
+        "bool",
+        "table",
+        list=[0.1],
+        empty_list=[],
+        three=[0.1, 0.0, 0.0],
+        nested=[[0.1], [0.0]],
+        nan_in_list=[0.1, NAN],
+        inf_in_list=[INF, 0.0],
+        string_in_list=[0.1, "0"],
+        bool_in_list=[0.1, True],
+    ),
     "solver.method": kinds(*CHOICE, string="bogus", empty="", list=["central-difference"]),
     "solver.steps_per_period": kinds(*WHOLE),
     "solver.max_steps": kinds(*WHOLE),
@@ -301,6 +318,10 @@ for value in ("0", "9", "1.5"):  # the n-period map's n from the command line
     set_value = ("--set", f"sweep.period_multiple={value}")
     name = f"set:sweep.period_multiple={value}"
     validate("values", name, scene(), "--set", "sweep.period_multiple", extra=set_value)
+# a tap's state is the single model's: the ball model refuses it (validate, and a sweep)
+BALL_TAP = scene({"model.kind": "ball", "sweep.initial_state": [0.1, 0.0]})
+validate("values", "sweep.initial_state=ball-model", BALL_TAP, "scene.toml", "sweep.initial_state")
+run("values", "sweep:initial_state=ball-model", "sweep", BALL_TAP, "scene.toml", "model.kind")
 
 # ---- absurd values: in range by type, impossible to compute honestly --------------------
 N256 = {"solver.steps_per_period": 256}
@@ -1223,6 +1244,8 @@ DOCUMENTED_NAN = {
     "ball_mode_error",  # where the dwell or record does not repeat every period
     "jump_frequency_ratio",
     "jump_frequency",
+    "subharmonic_onset_frequency_ratio",  # no jump onto (or off) a period-2 response
+    "subharmonic_end_frequency_ratio",
     "flight_start",
     "flight_end",
     "flight_start_time",

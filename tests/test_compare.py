@@ -565,7 +565,7 @@ def test_real_sweeps_identical_and_damping_changed(tmp_path, capsys):
     a = sweep(tmp_path, capsys, "a")
     b = sweep(tmp_path, capsys, "b")
     code, out, _ = run_cli(["compare", a, b], capsys)
-    assert code == 0 and out.startswith("equal: 12 variables within tolerance (sweep;")
+    assert code == 0 and out.startswith("equal: 15 variables within tolerance (sweep;")
     c = sweep(tmp_path, capsys, "c", "--set", "damping.ratio=0.004545")  # +1 %
     code, out, _ = run_cli(["compare", c, a, "--json"], capsys)
     assert code == 1

@@ -19,7 +19,12 @@ from tests.golden_cases import CASES, GOLDEN, run
 
 RTOL = 1e-12  # relative to the variable's largest magnitude (see the module docstring)
 # variables the datasets gained after the references were made: checked by their own tests
-ADDED = {"ball_mode_error"}  # tests/test_ballmode.py
+ADDED = {  # tests/test_ballmode.py, tests/test_response_period.py
+    "ball_mode_error",
+    "response_period",
+    "subharmonic_onset_frequency_ratio",
+    "subharmonic_end_frequency_ratio",
+}
 
 
 def assert_same(new: xr.Dataset, ref: xr.Dataset, name: str) -> None:

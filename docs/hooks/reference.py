@@ -264,6 +264,7 @@ CHECKS = {  # a validator of hertzsweep.core.config -> what it accepts
     "_harmonics": "a whole number >= 1, or a list of distinct ones",
     "_period_multiple": "a whole number, 1 to 8",
     "_boolean": "`true` or `false`",
+    "_initial_state": "two finite numbers `[q, dq]`",
 }
 
 

@@ -131,6 +131,7 @@ class SweepConfig:
     jump_threshold: float = 0.3
     steady_state: str = "settle"
     period_multiple: int = 1
+    initial_state: tuple[float, float] | None = None  # (q, q') of each sweep's first dwell
 
     @property
     def frequency_ratios(self) -> np.ndarray:
@@ -494,6 +495,16 @@ def _fraction(source: str, key: str, value: Any) -> float:
     return x
 
 
+def _initial_state(source: str, key: str, value: Any) -> tuple[float, float]:
+    """``[q, dq]``: two finite numbers, the state a sweep's first dwell starts from."""
+    if not isinstance(value, list) or len(value) != 2:
+        raise ConfigError(
+            source, key, f"expected two numbers [q, dq] (displacement, velocity), got {value!r}"
+        )
+    q, dq = (_number(source, key, v) for v in value)
+    return q, dq
+
+
 Check = Callable[[str, str, Any], Any]
 
 SCHEMA: dict[str, dict[str, Check]] = {
@@ -532,6 +543,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "jump_threshold": _fraction,
         "steady_state": lambda s, k, v: _string(s, k, v, STEADY_STATE_METHODS),
         "period_multiple": _period_multiple,
+        "initial_state": _initial_state,
     },
     "solver": {
         "method": lambda s, k, v: _string(s, k, v, SOLVER_METHODS),
@@ -573,6 +585,7 @@ RANDOM_TABLES = ("random",)
 QUIET_DEFAULTS: dict[tuple[str, str], Any] = {
     ("sweep", "period_multiple"): 1,
     ("branch", "follow_period_doubling"): False,
+    ("sweep", "initial_state"): None,  # unset: at rest
 }
 QUIET_TABLES = ("branch",)
 # What each key of SCHEMA sets, one line each ([unit] first where it has one): the manual's
@@ -611,6 +624,10 @@ DESCRIPTIONS: dict[str, str] = {
     "response where the sweep's settled state is one (1 to 8)",
     "branch.follow_period_doubling": "hertzsweep branch also continues the period-doubled "
     "branch from every period-doubling point, recursively down to period 8 (as --follow-pd)",
+    "sweep.initial_state": "[1] [q, q'] in the model's units (q = 3/2 (z - z_s)/z_s, "
+    "q' = dq/dtau): the state each sweep's first dwell (and a trace's approach) starts from "
+    "at excitation phase 0, as a tap on the rig would give (default: unset, at rest; the "
+    "single model only)",
     "solver.method": "the integration method: the paper's central difference (order 2) or rk4 "
     "with located contact crossings",
     "solver.steps_per_period": "integration steps per excitation period (above the stability "
@@ -785,6 +802,13 @@ def check_model(scene: Scene) -> None:
     with the central difference; the rk4 method serves the single model)."""
     if scene.model.kind != "ball":
         return
+    if scene.sweep.initial_state is not None:
+        raise ConfigError(
+            scene.source,
+            "sweep.initial_state",
+            "not available with model.kind = 'ball' (its state is two bodies'; it starts "
+            "from rest)",
+        )
     for table, key, value, why in BALL_MODEL_NEEDS:
         given = getattr(getattr(scene, table), key)
         if given != value:

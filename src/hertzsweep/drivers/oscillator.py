@@ -320,6 +320,14 @@ class Oscillator:
         """At rest at the static equilibrium (q = 0, q' = 0)."""
         return State(self.method.rest(), self.method.rest(), self.step(frequency_ratio))
 
+    def initial(self, frequency_ratio: float) -> State:
+        """Where a sweep (or a trace's approach) starts at its first frequency: the scene's
+        ``sweep.initial_state`` ``(q, q')`` at excitation phase 0, else at rest."""
+        start = self.scene.sweep.initial_state
+        if start is None:
+            return self.rest(frequency_ratio)
+        return self.from_velocity(start[0], start[1], frequency_ratio)
+
     def from_velocity(self, q: float, velocity: float, frequency_ratio: float) -> State:
         h = self.step(frequency_ratio)
         return State(self.method.start(q, velocity, h, self.law), q, h)

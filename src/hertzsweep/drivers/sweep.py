@@ -20,6 +20,7 @@ from ..errors import HertzsweepError, Interrupted
 from ..kernels import scheme
 from .ballmode import BallModeCheck
 from .oscillator import Block, Oscillator, drive
+from .period import response_periods
 from .readings import BALL_FIELDS, HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
 from .steady import strategy
 
@@ -34,7 +35,9 @@ class SweepResult(Readings):
     turns it into seconds with the rig's Omega. ``ball_mode_error``: the figure e of
     :mod:`hertzsweep.core.ballmode` per periodic dwell, where the sweep read it (else
     None), from one more period of each dwell's end state ``end`` (float[..., 2], the
-    method's state), all read together once the sweep has run.
+    method's state), all read together once the sweep has run. ``response_period``: after
+    how many periods each dwell's state returns (:mod:`.period`; 1 where ``periodic``, 0
+    for none within 8), read as each dwell is stored.
     """
 
     directions: tuple[str, ...]
@@ -49,6 +52,9 @@ class SweepResult(Readings):
     ball_mode_error: np.ndarray | None = None
     end: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)  # the ball model's readings
+    response_period: np.ndarray | None = None  # int8 (direction, sigma, frequency_ratio)
+    subharmonic_onset_frequency_ratio: np.ndarray | None = None  # (direction, sigma)
+    subharmonic_end_frequency_ratio: np.ndarray | None = None
 
     @classmethod
     def empty(cls, scene: Scene, ball_mode: bool = False) -> SweepResult:
@@ -75,15 +81,27 @@ class SweepResult(Readings):
             ball_mode_error=nan() if ball_mode else None,
             end=nan(2) if ball_mode else None,
             extra={name: nan() for name in BALL_FIELDS} if scene.model.kind == "ball" else {},
+            response_period=np.zeros(shape, dtype=np.int8),
+            subharmonic_onset_frequency_ratio=np.full(shape[:2], np.nan),
+            subharmonic_end_frequency_ratio=np.full(shape[:2], np.nan),
             **readings,
         )
 
     def store_block(
-        self, dims: tuple[np.ndarray, np.ndarray], index: np.ndarray, block: Block, settled
+        self,
+        dims: tuple[np.ndarray, np.ndarray],
+        index: np.ndarray,
+        block: Block,
+        settled,
+        response_period: np.ndarray | None = None,
     ) -> None:
         """Store a block of T trajectories, trajectory t at ``(dims[0][t], dims[1][t],
-        index[t])``."""
+        index[t])``, with their response periods (:func:`.period.response_periods`; by
+        default 1 where periodic, 0 elsewhere)."""
         at = (*dims, index)
+        if response_period is None:
+            response_period = np.asarray(block.periodic, dtype=np.int8)
+        self.response_period[at] = response_period
         for name in READING_FIELDS:
             getattr(self, name)[at] = getattr(block, name)
         self.settled[at] = settled
@@ -92,6 +110,17 @@ class SweepResult(Readings):
             values[at] = block.extra[name]
         if self.end is not None:
             self.end[at] = block.end
+
+    def read_subharmonics(self) -> None:
+        """``subharmonic_onset_frequency_ratio`` and ``subharmonic_end_frequency_ratio`` of
+        every (direction, sigma) sweep from ``response_period`` (:func:`find_subharmonic`)."""
+        for d, direction in enumerate(self.directions):
+            for s in range(self.sigma.size):
+                onset, end = find_subharmonic(
+                    self.response_period[d, s], self.frequency_ratio, direction
+                )
+                self.subharmonic_onset_frequency_ratio[d, s] = onset
+                self.subharmonic_end_frequency_ratio[d, s] = end
 
     def read_ball_mode(self, ball: BallModeCheck, oscillator: Oscillator) -> int:
         """``ball_mode_error`` of every dwell whose response repeats every period (NaN
@@ -135,6 +164,32 @@ def find_jump(
     return float(frequency_ratios[order][i]) if change[i] > threshold else float("nan")
 
 
+SUBHARMONIC_PERIOD = 2  # the response_period of the subharmonic a sweep falls onto
+
+
+def find_subharmonic(
+    response_period: np.ndarray, frequency_ratios: np.ndarray, direction: str
+) -> tuple[float, float]:
+    """Where a sweep jumped onto the period-2 response and where it jumped off it, in its
+    sweep order and by :func:`find_jump`'s convention (the last frequency before the jump):
+    ``(onset, end)``, the dwell before the first of the longest run of dwells with
+    ``response_period == 2`` (the first such run if several are as long) and that run's
+    last dwell. NaN for an onset where the run starts the sweep, for an end where it ends
+    it, for both where the sweep has no period-2 dwell.
+    """
+    order = sweep_order(frequency_ratios, direction)
+    on = np.asarray(response_period)[order] == SUBHARMONIC_PERIOD
+    if not on.any():
+        return float("nan"), float("nan")
+    edges = np.diff(np.concatenate(([0], on.astype(np.int8), [0])))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # [start, stop)
+    run = int(np.argmax(stops - starts))
+    w = np.asarray(frequency_ratios, dtype=float)[order]
+    onset = float(w[starts[run] - 1]) if starts[run] > 0 else float("nan")
+    end = float(w[stops[run] - 1]) if stops[run] < w.size else float("nan")
+    return onset, end
+
+
 def run_direction(
     scene: Scene, sigma: float, direction: str, result: SweepResult, progress: Progress | None
 ) -> Oscillator:
@@ -146,13 +201,14 @@ def run_direction(
     oscillator = Oscillator(scene, sigma)
     d = result.directions.index(direction)
     s = int(np.flatnonzero(result.sigma == sigma)[0])
-    walk = strategy(scene).walk(oscillator, oscillator.rest(w[order[0]]), w[order])
+    walk = strategy(scene).walk(oscillator, oscillator.initial(w[order[0]]), w[order])
     try:
         for positions, block, settled in walk:
             index = order[positions]
-            result.store_block(
-                (np.full(index.size, d), np.full(index.size, s)), index, block, settled
-            )
+            h = np.array([oscillator.step(float(x)) for x in w[index]])
+            periods = response_periods(oscillator, block, np.full(index.size, sigma), h)
+            dims = (np.full(index.size, d), np.full(index.size, s))
+            result.store_block(dims, index, block, settled, periods)
             if progress is not None:
                 progress(index.size)
     except HertzsweepError as exc:
@@ -209,6 +265,7 @@ def run_sweep(
         raise Interrupted(result, signal_number) from None
     if ball is not None:
         result.steps += result.read_ball_mode(ball, Oscillator(scene, result.sigma[0]))
+    result.read_subharmonics()
     return result
 
 
@@ -239,6 +296,11 @@ class Lockstep:
         self.method = self.oscillators[0].method
         self.q_prev = self.method.zeros(sigma.size)
         self.q = self.method.zeros(sigma.size)
+        if scene.sweep.initial_state is not None:  # else at rest (Oscillator.initial)
+            q, velocity = scene.sweep.initial_state
+            for t, step in enumerate(self.h):
+                self.q_prev[t] = self.method.start(q, velocity, step, self.law)
+                self.q[t] = q
         # one trajectory keeps its state in registers (the same numbers, bit for bit)
         self.measure = self.method.measure_one if sigma.size == 1 else self.method.measure
 
@@ -312,7 +374,8 @@ def _run_lockstep(
                     run.oscillators[bad].check_status(status, w[index[bad]])
                 except HertzsweepError as exc:
                     raise exc.with_context(f"{scene.source}: {direction} sweep") from None
-            result.store_block(dims, index, block, settled)
+            periods = response_periods(run.oscillators[0], block, run.drive.sigma, run.h)
+            result.store_block(dims, index, block, settled, periods)
             if progress is not None:
                 progress(len(pairs))
     except KeyboardInterrupt as exc:
@@ -325,6 +388,7 @@ def _run_lockstep(
             result.amplitude[d, s, :, 0], w, result.directions[d], scene.sweep.jump_threshold
         )
     result.finished[:] = True
+    result.read_subharmonics()
     return result
 
 

@@ -31,7 +31,8 @@ from ..kernels import scheme
 from ..kernels.ball import BALL_RECORD_COLUMNS
 from ..kernels.flights import IN_CONTACT, NORMAL_FORCE, RECORD_COLUMNS, flight_intervals
 from .ballmode import spectrum_errors
-from .oscillator import Oscillator, Reading, State
+from .oscillator import Block, Oscillator, Reading, State
+from .period import response_periods
 from .readings import SCALAR_FIELDS, Readings
 from .spectrum import AmplitudeSpectrum, harmonic_orders
 from .steady import Dwell, settle_dwell, strategy
@@ -107,6 +108,9 @@ class TraceResult(Readings):
         The dwell at W met the scene's settling criterion.
     periodic : bool[S]
         The recorded state repeats after one period.
+    response_period : int8[S]
+        After how many periods the state at the end of the record returns (1 where
+        ``periodic``, 0 for none within 8: :func:`.period.response_periods`).
     approach : float[A]
         The grid frequencies dwelt at before W, in order (empty: from rest at W).
     ball_mode_error : float[S] or None
@@ -133,6 +137,7 @@ class TraceResult(Readings):
     ball_mode_error: np.ndarray | None = None
     record_columns: int = RECORD_COLUMNS  # the ball model's record has more
     extra: dict[str, np.ndarray] = field(default_factory=dict)  # the ball model's readings
+    response_period: np.ndarray | None = None
 
     @property
     def samples(self) -> int:
@@ -214,7 +219,7 @@ def reach(
 ) -> tuple[State, bool]:
     """Walk ``path`` dwell by dwell, then dwell at W. Returns the state at W (at a
     period boundary, excitation phase 0) and whether the dwell at W settled."""
-    state = oscillator.rest(path[0] if path.size else frequency_ratio)
+    state = oscillator.initial(path[0] if path.size else frequency_ratio)
     for w in path:
         state, _, _ = dwell(oscillator, state, float(w))
         if progress is not None:
@@ -462,6 +467,7 @@ def run_trace(
     scalars = {name: np.empty(sigma.size) for name in SCALAR_FIELDS}
     settled = np.zeros(sigma.size, dtype=bool)
     periodic = np.zeros(sigma.size, dtype=bool)
+    period = np.zeros(sigma.size, dtype=np.int8)
     intervals = []
     extra: dict[str, np.ndarray] = {}
     steps = 0
@@ -478,6 +484,8 @@ def run_trace(
         for name in SCALAR_FIELDS:  # flight_tau: from the interpolated flights, below
             scalars[name][s] = getattr(reading, name)
         periodic[s] = reading.periodic
+        block = Block.of(reading, state)
+        period[s] = response_periods(oscillator, block, np.array([level]), np.array([state.h]))[0]
         for name, value in reading.extra.items():
             extra.setdefault(name, np.full(sigma.size, np.nan))[s] = value
         intervals.append(log.intervals())
@@ -500,6 +508,7 @@ def run_trace(
         flights=Flights.padded(intervals),
         settled=settled,
         periodic=periodic,
+        response_period=period,
         approach=path,
         spectrum_backend=analyser.backend,
         steps=steps,

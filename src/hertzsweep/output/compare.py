@@ -62,6 +62,8 @@ TOLERANCES: dict[str, Tolerance] = {
     # the resolution of the measurement itself (one step; in Hz the step times f0).
     "jump_frequency_ratio": Tolerance(GRID, steps=1.0),
     "jump_frequency": Tolerance(GRID, steps=1.0),
+    "subharmonic_onset_frequency_ratio": Tolerance(GRID, steps=1.0),  # jumps too
+    "subharmonic_end_frequency_ratio": Tolerance(GRID, steps=1.0),
     # Folds located by continuation are finer than the grid, but a fold that moves by less
     # than a sweep step changes no sweep: the same resolution.
     "bifurcation_frequency_ratio": Tolerance(GRID, steps=1.0),

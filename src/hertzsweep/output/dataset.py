@@ -392,6 +392,18 @@ def _coords(result: SweepResult, constants: RigConstants) -> dict[str, Any]:
     }
 
 
+def _period_variables(result: SweepResult | TraceResult, dims: tuple[str, ...]) -> Variables:
+    """``response_period`` on ``dims`` (int8: 0 none, n periods) where the result has it,
+    and a sweep's subharmonic jumps on (direction, sigma)."""
+    data: Variables = {}
+    if getattr(result, "response_period", None) is not None:
+        data["response_period"] = (dims, np.asarray(result.response_period, dtype=np.int8))
+    for name in ("subharmonic_onset_frequency_ratio", "subharmonic_end_frequency_ratio"):
+        if getattr(result, name, None) is not None:
+            data[name] = (("direction", "sigma"), getattr(result, name))
+    return data
+
+
 def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None) -> Frame:
     """The SPEC's sweep dataset."""
     constants = derive(scene.rig)
@@ -404,6 +416,7 @@ def sweep_dataset(result: SweepResult, scene: Scene, history: str | None = None)
         jump_frequency_ratio=(("direction", "sigma"), jump),
         jump_frequency=(("direction", "sigma"), jump * constants.natural_frequency),
     )
+    data.update(_period_variables(result, base))
     if result.ball_mode_error is not None:
         data["ball_mode_error"] = (base, result.ball_mode_error)
     data.update(_ball_readings(result.extra, base, constants.natural_circular_frequency))
@@ -461,6 +474,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
         frequency_ratio=((), w),
         frequency=((), w * f0),
     )
+    data.update(_period_variables(result, ("sigma",)))
     if result.ball_mode_error is not None:
         data["ball_mode_error"] = ("sigma", result.ball_mode_error)
     data.update(_ball_readings(result.extra, ("sigma",), omega))

@@ -8,7 +8,9 @@ dataset is that of its ``hertzsweep_kind`` (:func:`hertzsweep.output.kinds.figur
   filled markers, down sweeps open ones, one colour per sigma (Figures 3, 4, 5, 9, 10);
   view ``forces``: extremes of N/F_s and the contact-loss share (Figure 6). Dwells that
   did not settle (``settled = 0``) are crosses, settled ones that do not repeat every
-  period (``periodic = 0``) triangles, each named in the legend.
+  period (``periodic = 0``) triangles, or squares where they repeat after n > 1 periods
+  (``response_period``), each named in the legend; the jumps onto and off the period-2
+  response (``subharmonic_onset/end_frequency_ratio``) vertical lines.
 - ``branch``: the periodic-orbit branches, stable solid, unstable dotted, folds and other
   bifurcations marked, optionally over a simulated sweep (Figures 13, 14; the paper's
   markers there are its measurements, ours a simulation, and the legend says so).
@@ -77,6 +79,13 @@ FORCE_LABEL = r"normal force $N/F_s$ [1]"
 WRAPPED, UNWRAPPED = "wrapped", "unwrapped"  # phase conventions (:func:`phase_convention`)
 NOT_SETTLED = ("x", "not settled (still a transient)")  # marker and legend of settled = 0
 NOT_PERIODIC = ("^", "not periodic (period doubling, subharmonic or chaos)")  # periodic = 0
+# response_period n > 1 (the square of a period doubling, as FOLD_MARKERS); with it, the
+# triangles of NOT_PERIODIC are the dwells that repeat within no 8 periods (n = 0)
+MULTI_PERIOD = ("s", "repeats every n > 1 periods (period doubling, subharmonic)")
+SUBHARMONIC_JUMPS = {  # dataset variable -> (line style, legend) of the vertical marks
+    "subharmonic_onset_frequency_ratio": ("--", "jump onto the period-2 response"),
+    "subharmonic_end_frequency_ratio": (":", "jump off the period-2 response"),
+}
 FOLD_MARKERS = {  # bifurcation kind -> (marker, label)
     "fold": ("D", "fold (saddle-node)"),
     "period-doubling": ("s", "period doubling"),
@@ -351,7 +360,11 @@ def _flag_handles(flags: set[str]) -> list[Line2D]:
     """Legend entries of the dwells drawn apart (:func:`_sweep_markers`), those drawn."""
     return [
         Line2D([], [], ls="none", marker=marker, ms=7, color="0.2", mfc="none", label=label)
-        for marker, label in (NOT_SETTLED, NOT_PERIODIC)
+        for marker, label in (NOT_SETTLED, NOT_PERIODIC, MULTI_PERIOD)
+        if label in flags
+    ] + [
+        Line2D([], [], color="0.2", lw=1.0, ls=style, label=label)
+        for style, label in SUBHARMONIC_JUMPS.values()
         if label in flags
     ]
 
@@ -393,6 +406,33 @@ def dwell_flags(ds: xr.Dataset, direction: str, i: int) -> tuple[np.ndarray, np.
     return unsettled, aperiodic & ~unsettled
 
 
+def multi_period_flags(ds: xr.Dataset, direction: str, i: int) -> np.ndarray:
+    """Mask of one sweep's dwells that repeat after n > 1 periods (``response_period``;
+    all False where the dataset has none), among those :func:`dwell_flags` finds settled
+    but not periodic."""
+    one = ds.sel(direction=direction).isel(sigma=i)
+    if "response_period" not in one:
+        return np.zeros(ds.sizes["frequency_ratio"], bool)
+    return dwell_flags(ds, direction, i)[1] & (one.response_period.values > 1)
+
+
+def _subharmonic_jumps(axes, ds: xr.Dataset, colour_of=None) -> set[str]:
+    """Vertical marks at each sweep's jumps onto and off the period-2 response
+    (:data:`SUBHARMONIC_JUMPS`) on every panel, in the colour of its sigma; returns the
+    legend labels of those drawn (none where no sweep has one)."""
+    drawn: set[str] = set()
+    for name, (style, label) in SUBHARMONIC_JUMPS.items():
+        if name not in ds:
+            continue
+        values = ds[name].transpose("direction", "sigma").values
+        for i in range(ds.sizes["sigma"]):
+            for w in values[:, i][np.isfinite(values[:, i])]:
+                for ax in axes:
+                    ax.axvline(w, color=(colour_of or _colour)(i), lw=1.0, ls=style, alpha=0.7)
+                drawn.add(label)
+    return drawn
+
+
 def _sweep_markers(
     ax,
     ds: xr.Dataset,
@@ -417,11 +457,16 @@ def _sweep_markers(
             y = values.sel(direction=direction).isel(sigma=i).values
             y = drawn_phase(y, low) if phase else np.asarray(y, dtype=float)
             unsettled, aperiodic = dwell_flags(ds, direction, i)
+            multiple = multi_period_flags(ds, direction, i)
             face = colour if direction == "up" else "none"
             style = dict(ls="none", color=colour, mew=0.8, alpha=alpha)
             converged = np.where(unsettled | aperiodic, np.nan, y)
             ax.plot(w, converged, marker="o", ms=MARKER_SIZE, mfc=face, **style)
-            for mask, (marker, label) in ((unsettled, NOT_SETTLED), (aperiodic, NOT_PERIODIC)):
+            for mask, (marker, label) in (
+                (unsettled, NOT_SETTLED),
+                (aperiodic & ~multiple, NOT_PERIODIC),
+                (multiple, MULTI_PERIOD),
+            ):
                 if np.any(mask & np.isfinite(y)):
                     ax.plot(w[mask], y[mask], marker=marker, ms=FLAG_MARKER_SIZE, mfc=face, **style)
                     flags.add(label)
@@ -452,6 +497,7 @@ def sweep_figure(
         flags |= _sweep_markers(axes[row, 0], ds, ds.amplitude.sel(harmonic=k))
         if with_phase:
             flags |= _sweep_markers(axes[row, 1], ds, ds.phase.sel(harmonic=k), phase=True)
+    flags |= _subharmonic_jumps(axes.ravel(), ds)
     _label_harmonic_axes(axes, orders, with_phase, f0)
     _sweep_legend(axes[0, 0], ds.sigma.values, list(ds.direction.values), flags)
     text = "Simulated stepped-sine sweep, harmonics of $N/F_s$"
@@ -468,6 +514,7 @@ def _sweep_forces(ds: xr.Dataset) -> Figure:
     top.axhline(0.0, color="0.4", lw=0.8)
     top.set_ylabel(r"$N_{max}/F_s$ (above 1), $N_{min}/F_s$ (below 1) [1]")
     flags |= _sweep_markers(bottom, ds, 100.0 * ds.contact_loss_fraction)
+    flags |= _subharmonic_jumps((top, bottom), ds)
     bottom.set_ylabel("time out of contact, share of the period [%]")
     bottom.set_ylim(-3.0, 100.0)
     bottom.set_xlabel(W_LABEL)

@@ -62,7 +62,26 @@ def sweep_summary(result: object, ds: Any) -> str:
                 f"{np.nanmax(loss[i, j]):5.2f}",
             )
             lines.append(" ".join(cells))
-    return "\n".join(lines)
+    return "\n".join(_subharmonic_columns(lines, ds))
+
+
+SUBHARMONIC = ("subharmonic_onset_frequency_ratio", "subharmonic_end_frequency_ratio")
+
+
+def _subharmonic_columns(lines: list[str], ds: Any) -> list[str]:
+    """The sweep table with two more columns, the jumps onto and off the period-2
+    response (``sub on``, ``sub off``; '-' for none), where any sweep has one; unchanged
+    otherwise."""
+    if not all(name in ds for name in SUBHARMONIC):
+        return lines
+    onset, end = (np.asarray(ds[name].values, dtype=float) for name in SUBHARMONIC)
+    if not (np.isfinite(onset).any() or np.isfinite(end).any()):
+        return lines
+    out = [lines[0] + f" {'sub on':>7s} {'sub off':>7s}"]
+    rows = ((i, j) for i in range(onset.shape[0]) for j in range(onset.shape[1]))
+    for line, (i, j) in zip(lines[1:], rows, strict=True):
+        out.append(f"{line} {_jump_text(onset[i, j], 7)} {_jump_text(end[i, j], 7)}")
+    return out
 
 
 # --------------------------------------------------------------------------- trace
@@ -82,6 +101,9 @@ def trace_summary(result: object, ds: Any) -> str:
         state = "settled" if value["settled"][i] else "NOT settled"
         if not value["periodic"][i]:
             state += ", not periodic"
+            period = int(ds["response_period"].values[i]) if "response_period" in ds else 0
+            if period > 1:
+                state += f": repeats every {period} periods"
         lines.append(
             f"sigma {sigma:.4g} w {ds.attrs['frequency_ratio']:.4f} {ds.attrs['branch']}: "
             f"{harmonics}  N max {value['force_max'][i]:.3f} min {value['force_min'][i]:.3f}  "
