@@ -648,9 +648,9 @@ def plot(
     view : str, optional
         One of the kind's views (default the first): sweep ``harmonics``,
         ``amplitude``, ``forces``; trace ``both``, ``time``, ``spectrum``; branch
-        ``harmonics``, ``amplitude``; study ``jumps``; accuracy ``errors``; measured and
-        fit ``auto``, ``harmonics``, ``amplitude``, ``jumps``; random ``psd``, ``pdf``,
-        ``loss``.
+        ``harmonics``, ``amplitude``; study ``jumps``, ``subharmonic``; accuracy
+        ``errors``; measured and fit ``auto``, ``harmonics``, ``amplitude``, ``jumps``;
+        random ``psd``, ``pdf``, ``loss``.
     harmonics : sequence of int, optional
         Draw only these harmonics (sweep, branch).
     sigmas : sequence of float, optional

@@ -115,6 +115,14 @@ class ContinuationParameters:
     """Vertical |dw/ds| in a grazing cluster: above 0.05 between zigzags, below 0.3 into them."""
     max_points: int = 20000
     """Points before the cut ("max-points"): 400 of arclength at max_step, so only a stuck step."""
+    doubling_proximity: float = 0.1
+    """Within this distance |mu + 1| of a multiplier to -1 the next step is at most
+    ``max_step |mu + 1| / doubling_proximity`` (not below restart_step): a period-doubling
+    bubble (two sign changes of det(M + I)) narrower than a step would hide both. Near
+    w = 2 the pair's closest approach is 1 - |mu| ~ zeta T (0.014 at zeta = 0.45 %), so the
+    steps there are at most 0.003 in w: the bubble at sigma = 20 % (1.993 to 2.006) is
+    found whatever the span; one narrower than about 0.003, within 1 % of its threshold
+    level, can still be missed."""
     location_tolerance: float = 1e-12
     """Brent's arclength tolerance at bifurcations and edges: far below 1e-6 in w (|dw/ds| <= 1)."""
 
@@ -573,6 +581,20 @@ def iterate(run: _Continuation, state: ContinuationState) -> None:
         state.ds = min(state.ds * parameters.growth, parameters.max_step)
     elif count >= parameters.hard_corrector:
         state.ds *= parameters.shrink
+    state.ds = min(state.ds, _doubling_step(new, parameters))
+
+
+def _doubling_step(point: _Point, parameters: ContinuationParameters) -> float:
+    """The largest next step from ``point`` by its multipliers' distance to -1
+    (:attr:`ContinuationParameters.doubling_proximity`)."""
+    monodromy = point.evaluation.monodromy
+    if not np.all(np.isfinite(monodromy)):
+        return parameters.max_step
+    near = float(np.min(np.abs(np.linalg.eigvals(monodromy) + 1.0)))
+    if near >= parameters.doubling_proximity:
+        return parameters.max_step
+    step = parameters.max_step * near / parameters.doubling_proximity
+    return max(step, parameters.restart_step)
 
 
 def _advance(

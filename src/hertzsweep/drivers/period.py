@@ -9,8 +9,8 @@ there is none: from a copy of that state, advanced one period at a time with the
 own kernels (every trajectory of a block at once), compared with it with the relative
 tolerance of ``periodic``. The state a sweep carries on and the readings are untouched: a
 dwell that is periodic is n = 1 at no cost; the others cost at most
-2 x :data:`MAX_RESPONSE_PERIOD` periods each, which the run's ``integration_steps`` (the steps of
-its dwells) does not count.
+2 x :data:`MAX_RESPONSE_PERIOD` periods each, added to the oscillator's ``steps`` (so to the
+run's ``integration_steps``).
 """
 
 from __future__ import annotations
@@ -72,6 +72,7 @@ def response_periods(
     apart = np.zeros(check.size, dtype=bool)  # after one period: clearly not period 1
     for n in range(1, 2 * MAX_RESPONSE_PERIOD + 1):
         status, _ = oscillator.method.advance_batch(q_prev, q, steps, oscillator.law, kernels, 1)
+        oscillator.steps += check.size * oscillator.steps_per_period
         if status == scheme.STOPPED:
             scheme.check_status(status, oscillator.sigma, float("nan"), 0)
         if status != scheme.OK:  # beyond the dwell's reach: no return to read

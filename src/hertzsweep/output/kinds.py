@@ -195,7 +195,7 @@ def _draw_random(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Fig
 def _draw_study(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Figure:
     from .plot import study_figure
 
-    return study_figure(ds)
+    return study_figure(ds, view)
 
 
 def _draw_accuracy(ds: xr.Dataset, view: str, harmonics: Any, overlay: Any) -> Figure:
@@ -267,7 +267,7 @@ KINDS: dict[str, Kind] = {  # name, source, views, run, build, draw, summary[, e
              _draw_branch, summary.branch_summary, case_driver=_branch_case),
         Kind("random", SCENE, ("psd", "pdf", "loss"), _run_random, random_dataset,
              _draw_random, summary.random_summary, case_driver=_random_case),
-        Kind("study", STUDY, ("jumps",), _run_study, _combine, _draw_study,
+        Kind("study", STUDY, ("jumps", "subharmonic"), _run_study, _combine, _draw_study,
              summary.study_summary),
         Kind("accuracy", SCENE, ("errors",), _run_accuracy, accuracy_dataset,
              _draw_accuracy, summary.accuracy_summary),

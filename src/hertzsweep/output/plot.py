@@ -839,19 +839,40 @@ AXIS_SYMBOLS = {  # grid dimension -> symbol in labels
 def study_jumps(ds: xr.Dataset) -> xr.DataArray:
     """The downward jump frequency ratio of a study (the up one when only up sweeps ran):
     ``jump_frequency_ratio`` at direction ``down``."""
-    if "jump_frequency_ratio" not in ds:
-        raise HertzsweepError("study dataset has no 'jump_frequency_ratio' to draw")
-    jump = ds.jump_frequency_ratio
-    if "direction" in jump.dims:
+    return _study_variable(ds, "jump_frequency_ratio", "down")
+
+
+SUBHARMONIC_VIEW = "subharmonic"  # a study's view of where its sweeps met the subharmonic
+
+
+def study_subharmonic(ds: xr.Dataset) -> xr.DataArray:
+    """Where a study's sweeps jumped onto the period-2 response:
+    ``subharmonic_onset_frequency_ratio`` at direction ``up`` (the down one when only
+    down sweeps ran)."""
+    return _study_variable(ds, "subharmonic_onset_frequency_ratio", "up")
+
+
+def _study_variable(ds: xr.Dataset, name: str, direction: str) -> xr.DataArray:
+    """``ds[name]`` at ``direction`` (the study's first direction when it has not that
+    one); a HertzsweepError when the study has no such variable."""
+    if name not in ds:
+        raise HertzsweepError(f"study dataset has no {name!r} to draw")
+    values = ds[name]
+    if "direction" in values.dims:
         directions = [str(d) for d in ds.direction.values]
-        jump = jump.isel(direction=directions.index("down") if "down" in directions else 0)
-    return jump
+        index = directions.index(direction) if direction in directions else 0
+        values = values.isel(direction=index)
+    return values
 
 
-def study_figure(ds: xr.Dataset) -> Figure:
+def study_figure(ds: xr.Dataset, view: str = "jumps") -> Figure:
     """The jump frequency against sigma, one curve per damping law (Figure 15); every
-    other grid dimension also gets its own curve."""
-    jump = study_jumps(ds)
+    other grid dimension also gets its own curve. The ``subharmonic`` view draws the
+    subharmonic onset instead (:func:`study_subharmonic`), beside the edge of the
+    small-amplitude (Mathieu) estimate's instability band
+    (:func:`hertzsweep.core.subharmonic.mathieu_tongue`)."""
+    subharmonic = view == SUBHARMONIC_VIEW
+    jump = study_subharmonic(ds) if subharmonic else study_jumps(ds)
     direction = str(jump.direction.values) if "direction" in jump.coords else "down"
     x_dim = "sigma" if "sigma" in jump.dims else jump.dims[0]
     others = [d for d in jump.dims if d != x_dim]
@@ -860,7 +881,7 @@ def study_figure(ds: xr.Dataset) -> Figure:
     x = jump[x_dim].values.astype(float)
     scale = 100.0 if x_dim == "sigma" else 1.0
     markers = itertools.cycle("osD^vP*X")
-    doubtful = unconverged_jumps(ds, jump)
+    doubtful = xr.zeros_like(jump, dtype=bool) if subharmonic else unconverged_jumps(ds, jump)
     flagged = False
     for i, index in enumerate(itertools.product(*(range(jump.sizes[d]) for d in others))):
         where = dict(zip(others, index, strict=True))
@@ -884,6 +905,8 @@ def study_figure(ds: xr.Dataset) -> Figure:
             flagged = True
     if flagged:
         ax.plot([], [], ls="none", marker="x", ms=9, mew=1.4, color="k", label=JUMP_FLAG)
+    if subharmonic and x_dim == "sigma" and _mathieu_edge(ax, ds, x, direction):
+        others = others or ["estimate"]  # a legend for the estimate's line
     drawn = x[np.any(np.isfinite(jump.transpose(x_dim, ...).values.reshape(x.size, -1)), axis=1)]
     if drawn.size > 1 and drawn.min() > 0 and drawn.max() / drawn.min() > 10:
         ax.set_xscale("log")  # levels spread over decades (0.2 % to 8 %)
@@ -893,7 +916,8 @@ def study_figure(ds: xr.Dataset) -> Figure:
     ax.set_xlabel(
         r"input level $\sigma = F/F_s$ [%]" if x_dim == "sigma" else _grid_label(ds, x_dim)
     )
-    ax.set_ylabel(rf"{direction}ward jump frequency ratio $\varpi$ [1]")
+    quantity = "subharmonic onset" if subharmonic else f"{direction}ward jump"
+    ax.set_ylabel(rf"{quantity} frequency ratio $\varpi$ [1]")
     ax.grid(True, which="both", lw=0.3)
     _hz_axis(ax, _f0(ds), where="right")
     if others or flagged:
@@ -903,7 +927,9 @@ def study_figure(ds: xr.Dataset) -> Figure:
         ax.text(  # top right: the curves fall from the upper left, the legend goes below
             0.99,
             0.99,
-            "a missing point: no jump within the swept range",
+            "a missing point: no jump within the swept range"
+            if not subharmonic
+            else "a missing point: no period-2 response met",
             transform=ax.transAxes,
             fontsize="x-small",
             color="0.3",
@@ -911,6 +937,8 @@ def study_figure(ds: xr.Dataset) -> Figure:
             va="top",
         )
     text = f"{direction.capitalize()}ward jump frequency against input level"
+    if subharmonic:
+        text = f"Subharmonic onset ({direction} sweeps) against input level"
     step = ds.attrs.get("sweep_step")
     if isinstance(step, int | float | np.number):  # a jump is known to one grid step
         text += rf", frequency step $\Delta\varpi$ = {float(step):g}"
@@ -949,6 +977,25 @@ def unconverged_jumps(ds: xr.Dataset, jump: xr.DataArray) -> xr.DataArray:
             out[index] = bool(np.any(bad[index][pair]))
     flagged.values = out
     return flagged
+
+
+def _mathieu_edge(ax, ds: xr.Dataset, sigma: np.ndarray, direction: str) -> bool:
+    """Draw the small-amplitude estimate's edge of the period-1 instability band met by a
+    sweep in ``direction`` (the lower edge going up, the upper going down) against sigma,
+    for the scene's damping ratio when the study keeps one; False where it drew nothing."""
+    from ..core.subharmonic import mathieu_tongue
+
+    zeta = ds.attrs.get("damping_ratio")
+    if not isinstance(zeta, int | float | np.number) or sigma.size == 0:
+        return False
+    levels = np.linspace(float(np.nanmin(sigma)), float(np.nanmax(sigma)), 200)
+    bands = [mathieu_tongue(float(s), float(zeta)) for s in levels]
+    edge = np.array([np.nan if b is None else b[0 if direction == "up" else 1] for b in bands])
+    if not np.any(np.isfinite(edge)):
+        return False
+    label = rf"small-amplitude estimate ($\zeta$ = {float(zeta):g})"
+    ax.plot(100.0 * levels, edge, ls="--", lw=1.2, color="0.35", label=label)
+    return True
 
 
 def _grid_label(ds: xr.Dataset, dim: str) -> str:
@@ -1426,6 +1473,7 @@ __all__ = [
     "select_sigma",
     "stability_segments",
     "study_figure",
+    "study_subharmonic",
     "study_jumps",
     "sweep_figure",
     "trace_figure",
