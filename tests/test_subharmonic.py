@@ -8,11 +8,12 @@ which leans to low w, folds there and comes back to the lower one. The stepped s
 - up: leaves the period-1 orbit at the lower period doubling (``subharmonic_onset``) and
   rides the period-2 response up to the upper one, where it merges back (``end``);
 - down: leaves at the upper period doubling and stays on the period-2 response down to
-  its fold (``end``).
+  its fold (``end``): within one step of it at 25 and 30 %; at 20 %, where grazing makes
+  the branch zigzag through a cluster of folds 2e-3 wide, inside that cluster.
 
 By the jump convention (the last frequency before the jump, in sweep order) each
-reported frequency lies within one step (0.0025) of its bifurcation. That takes dwells
-long enough for the period-1 orbit to leave: one step past a period doubling its
+reported frequency lies within one step (0.0025) of its bifurcation (but one, above).
+That takes dwells long enough for the period-1 orbit to leave: one step past a period doubling its
 multiplier is -1.0021, -1.0036 and -1.0048 at sigma = 20, 25 and 30 % (Newton's orbit),
 growing a perturbation e^7-fold in 3300, 1900 and 1500 periods; the scene settles 3000
 periods, and the dwells one and two steps past add up. At the default 300, the onsets
@@ -44,10 +45,12 @@ def sweep():
 
 
 def landmarks(branch, sigma):
-    """``(w_low, w_high, w_fold)``: the period-1 branch's two period doublings and the fold
-    of the period-2 branch born at the upper one (its lowest-w fold: in the heavy loss of
-    contact there, grazing makes the branch zigzag through a cluster of folds within
-    about 1e-3 of each other, located where the cluster turns back)."""
+    """``(w_low, w_high, w_fold, w_stable_end)``: the period-1 branch's two period
+    doublings; the fold of the period-2 branch born at the upper one (its lowest-w fold);
+    and where that branch, followed from its start, first stops being stable (the middle
+    of its first unstable point and the one before). In the heavy loss of contact near
+    the fold grazing makes the branch zigzag through a cluster of folds; the
+    continuation reports where the cluster turns back."""
     one = branch.sel(sigma=sigma)
 
     def bifurcations(b, kind):
@@ -62,19 +65,29 @@ def landmarks(branch, sigma):
     assert float(child.parent_frequency_ratio) == pytest.approx(doublings[1], abs=1e-9)
     folds = bifurcations(1, "fold")
     assert folds.size >= 1, sigma
-    return doublings[0], doublings[1], folds[0]
+    stable, w = child.stable.values, child.frequency_ratio.values
+    first_unstable = 1 + int(np.argmax(stable[1:] == 0))  # point 0 is the doubling itself
+    return doublings[0], doublings[1], folds[0], 0.5 * (w[first_unstable - 1] + w[first_unstable])
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("sigma", [0.2, 0.25, 0.3])
 def test_the_sweeps_subharmonic_jumps_are_the_branchs_bifurcations(sweep, branch, sigma):
-    w_low, w_high, w_end = landmarks(branch, sigma)
+    w_low, w_high, w_fold, w_stable_end = landmarks(branch, sigma)
     onset = sweep.subharmonic_onset_frequency_ratio.sel(sigma=sigma)
     end = sweep.subharmonic_end_frequency_ratio.sel(sigma=sigma)
     assert abs(float(onset.sel(direction="up")) - w_low) <= STEP
     assert abs(float(end.sel(direction="up")) - w_high) <= STEP
     assert abs(float(onset.sel(direction="down")) - w_high) <= STEP
-    assert abs(float(end.sel(direction="down")) - w_end) <= STEP
+    down_end = float(end.sel(direction="down"))
+    if sigma > 0.2:
+        assert abs(down_end - w_fold) <= STEP  # 0.0018 and 0.0015 measured
+    else:
+        # At 20 % the branch's stable part ends at 0.5289 and the grazing cluster of folds
+        # reaches down to 0.5268 (or 0.5279, by the continuation's path): the sweep's last
+        # period-2 dwell is 0.53, 1.3 steps from the cluster's end, and its first dwell off
+        # it (0.5275) lies inside the cluster.
+        assert w_fold <= down_end - STEP <= w_stable_end
 
 
 @pytest.mark.slow
@@ -83,7 +96,7 @@ def test_at_the_default_300_periods_the_onsets_come_late(branch):
     scene = hs.load_scene(SCENE, overrides={"sweep.settle_periods": 300, "sweep.start": 1.9})
     short = hs.sweep(scene)
     for sigma in (0.2, 0.25, 0.3):
-        w_low, w_high, _ = landmarks(branch, sigma)
+        w_low, w_high, _, _ = landmarks(branch, sigma)
         onset = short.subharmonic_onset_frequency_ratio.sel(sigma=sigma)
         late_up = (float(onset.sel(direction="up")) - w_low) / STEP
         late_down = (w_high - float(onset.sel(direction="down"))) / STEP
@@ -96,7 +109,7 @@ def test_a_narrow_period_doubling_bubble_is_not_stepped_over(branch):
     continuation's largest step (0.02): the steps shrink as a multiplier nears -1
     (:attr:`ContinuationParameters.doubling_proximity`), so both doublings are found
     across the whole span; without that, neither is."""
-    assert len(landmarks(branch, 0.2)) == 3
+    assert len(landmarks(branch, 0.2)) == 4
     scene = hs.load_scene(SCENE, overrides={"excitation.sigma": [0.2]})
     result = run_branch(scene, parameters=ContinuationParameters(doubling_proximity=0.0))
     kinds = [b.kind for b in result.branches[0].bifurcations]

@@ -117,12 +117,15 @@ class ContinuationParameters:
     """Points before the cut ("max-points"): 400 of arclength at max_step, so only a stuck step."""
     doubling_proximity: float = 0.1
     """Within this distance |mu + 1| of a multiplier to -1 the next step is at most
-    ``max_step |mu + 1| / doubling_proximity`` (not below restart_step): a period-doubling
+    ``max_step |mu + 1| / doubling_proximity``, not below doubling_step: a period-doubling
     bubble (two sign changes of det(M + I)) narrower than a step would hide both. Near
     w = 2 the pair's closest approach is 1 - |mu| ~ zeta T (0.014 at zeta = 0.45 %), so the
     steps there are at most 0.003 in w: the bubble at sigma = 20 % (1.993 to 2.006) is
-    found whatever the span; one narrower than about 0.003, within 1 % of its threshold
-    level, can still be missed."""
+    found whatever the span; one narrower than about 0.003 (within 0.5 % of its lowest
+    level, about 36 zeta) can still be missed."""
+    doubling_step: float = 1e-3
+    """The shortest step :attr:`doubling_proximity` asks for: inside a bubble, where |mu + 1|
+    is small, a point every 0.001 in w or less."""
     location_tolerance: float = 1e-12
     """Brent's arclength tolerance at bifurcations and edges: far below 1e-6 in w (|dw/ds| <= 1)."""
 
@@ -594,7 +597,7 @@ def _doubling_step(point: _Point, parameters: ContinuationParameters) -> float:
     if near >= parameters.doubling_proximity:
         return parameters.max_step
     step = parameters.max_step * near / parameters.doubling_proximity
-    return max(step, parameters.restart_step)
+    return max(step, parameters.doubling_step)
 
 
 def _advance(
