@@ -666,7 +666,8 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     multipliers = np.empty((len(ordered), run.period.size), dtype=complex)
     for i, (point, _) in enumerate(ordered):
         w = float(point.y[-1])
-        _, reading = oscillator.measure(run.period.state(point.y[:-1], w), w, 1)
+        at = run.period.state(point.y[:-1], w)
+        _, reading = oscillator.measure(at, w, oscillator.denominator)  # whole periods
         readings.append(reading)
         multipliers[i] = sorted_multipliers(point.evaluation.monodromy)
     candidates = [i for i, (_, kind) in enumerate(ordered) if kind is not None]
@@ -680,7 +681,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     def stack(name: str) -> np.ndarray:
         return np.array([getattr(r, name) for r in readings])
 
-    steps_measured = len(ordered) * oscillator.steps_per_period
+    steps_measured = len(ordered) * oscillator.denominator * oscillator.steps_per_period
     return Branch(
         sigma=oscillator.sigma,
         frequency_ratio=np.array([p.y[-1] for p, _ in ordered]),
@@ -797,7 +798,7 @@ def run_branch(
         steps += branch.steps
     return BranchResult(
         sigma=np.asarray(scene.excitation.sigma, dtype=float),
-        harmonics=np.asarray(scene.lockin.harmonics, dtype=np.int64),
+        harmonics=np.asarray(scene.lockin.harmonics, dtype=np.float64),
         branches=branches,
         start_frequency_ratio=w_begin,
         end_frequency_ratio=w_end,

@@ -375,7 +375,8 @@ def shooting_dwell(
     period = PeriodMap(oscillator)
     state = oscillator.retune(state, frequency_ratio)
     orbit = find_orbit(period, state, frequency_ratio)
-    measured = CONVERGED_PERIODS if orbit.stable else oscillator.scene.sweep.measure_periods
+    converged = CONVERGED_PERIODS * oscillator.denominator  # whole periods of every order
+    measured = converged if orbit.stable else oscillator.scene.sweep.measure_periods
     state, reading = oscillator.measure(orbit.state, frequency_ratio, measured)
     return state, reading, orbit.stable
 
@@ -443,7 +444,7 @@ def _walked(oscillator: Oscillator, buffers: Readout, steps: np.ndarray, start: 
             buffers.coefficients[:, :, run], buffers.sums[:, run], buffers.counts[:, run],
             buffers.record, 0, buffers.extra[:, run],
         )  # fmt: skip
-        samples = CONVERGED_PERIODS * oscillator.steps_per_period
+        samples = CONVERGED_PERIODS * oscillator.denominator * oscillator.steps_per_period
         block = Block.read(done, samples, steps[run], oscillator.periodic_tolerance)
         yield run, block, np.ones(stop - start, dtype=bool)
 
