@@ -300,12 +300,23 @@ BAD_VALUES: dict[str, dict[str, Any]] = {
     "solver.steps_per_period": kinds(*WHOLE),
     "solver.max_steps": kinds(*WHOLE),
     "lockin.harmonics": kinds(
-        *WHOLE,
+        *NUMBER,
         list=[[1]],
         empty_list=[],
         repeated=[1, 1],
         zero_in_list=[0, 1],
         string_in_list=[1, "2"],
+        # orders that are not whole must be multiples of 1/2, 1/3 or 1/4 (within 1e-9)
+        fifth=0.2,
+        fifth_in_list=[0.2, 1],
+        three_tenths=[0.3, 1],
+        near_third=[0.333, 1],
+        negative_half=[-0.5, 1],
+        nan_in_list=[0.5, NAN],
+        inf_in_list=[0.5, INF],
+        repeated_half=[0.5, 0.5, 1],
+        repeated_as_float=[1, 1.0],
+        repeated_quarter=[0.25, 1, 2.5e-1],
     ),
 }
 BAD_VALUES["branch.follow_period_doubling"] = kinds(
@@ -359,6 +370,23 @@ ABSURD: dict[str, tuple[dict[str, Any], tuple, tuple[str, ...]]] = {
     "stop-1e300": ({"sweep.stop": 1e300}, (("sweep.stop", "sweep.step"),), ("sweep",)),
     "settle-1e12": ({"sweep.settle_periods": 10**12}, ("sweep.settle_periods",), ("sweep",)),
     "measure-1e12": ({"sweep.measure_periods": 10**12}, ("sweep.measure_periods",), ("trace",)),
+    # orders that are not whole are read over whole response periods (L excitation
+    # periods, L the lcm of their denominators): measure_periods a multiple of L
+    "half-order-measure-3": (
+        {"lockin.harmonics": [0.5, 1], "sweep.measure_periods": 3},
+        ("sweep.measure_periods", "3 is not a multiple of 2"),
+        tuple(RUN),
+    ),
+    "third-and-quarter-measure-6": (
+        {"lockin.harmonics": [1 / 3, 0.25, 1], "sweep.measure_periods": 6},
+        ("sweep.measure_periods", "6 is not a multiple of 12"),
+        ("sweep", "trace"),
+    ),
+    "half-order-measure-1": (
+        {"lockin.harmonics": [1.5], "sweep.measure_periods": 1},
+        ("sweep.measure_periods", "1 is not a multiple of 2"),
+        ("sweep",),
+    ),
     "youngs-modulus-1e-300": ({"rig.youngs_modulus": 1e-300}, ("rig.youngs_modulus",), ()),
     "ball-radius-1e300": ({"rig.ball_radius": 1e300}, ("rig.ball_radius",), ()),
     "ball-radius-1e-300": ({"rig.ball_radius": 1e-300}, ("rig.ball_radius",), ()),
@@ -390,6 +418,9 @@ for name in ("youngs-modulus-1e-300", "ball-radius-1e300", "ball-radius-1e-300")
          expect=("scene.toml", *keys))  # fmt: skip
 case("absurd", "trace:periods-1e9", *RUN["trace"], "--periods", "1000000000",
      files={"scene.toml": scene()}, expect=("--periods",))  # fmt: skip
+case("values", "trace:half-order-periods-3", *RUN["trace"], "--periods", "3",
+     files={"scene.toml": scene({"lockin.harmonics": [0.5, 1]})},
+     expect=("--periods", "3 is not a multiple of 2"))  # fmt: skip
 validate("absurd", "set:steps-per-period-2**64", scene(), "--set", "solver.steps_per_period",
          extra=("--set", f"solver.steps_per_period={2**64}"))  # fmt: skip
 

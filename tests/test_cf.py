@@ -32,6 +32,7 @@ from hertzsweep import __version__
 from hertzsweep.core.config import load_scene, scene_from_dict
 from hertzsweep.output.dataset import (
     INDEX,
+    ORDER,
     REFERENCES,
     absolute_arguments,
     open_dataset,
@@ -206,9 +207,11 @@ def test_cf_details(kind, files):
                 assert "units" not in var.ncattrs(), name
             else:
                 assert "units" in var.ncattrs(), name
-            if name in ("harmonic", "point", "multiplier", "bifurcation", "flight_count",
+            if name in ("point", "multiplier", "bifurcation", "flight_count",
                         "bifurcation_point", "branch_bridges", "steps_per_period"):  # fmt: skip
                 assert var.dtype == INDEX, (name, var.dtype)
+            if name == "harmonic":  # orders k: whole, or 1/2, 1/3, 1/4 of the excitation's
+                assert var.dtype == ORDER, (name, var.dtype)
         for name in ("direction", "damping_law", "setting_label"):
             if name in nc.variables:  # labels, not CF coordinate variables (numeric only)
                 assert nc.variables[name].dimensions[-1].startswith("string")

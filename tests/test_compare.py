@@ -658,3 +658,32 @@ def test_smoke_reference_perturbed_fails(tmp_path, capsys):
             "sigma": 0.006,
             "frequency_ratio": float(ref.frequency_ratio[5]),
         }
+
+
+# --------------------------------------------------------------------------- old files
+def test_an_integer_harmonic_of_an_earlier_version_reads_as_float(tmp_path, capsys):
+    # Files made before orders that are not whole hold ``harmonic`` as integers (int32: the
+    # smoke reference, the golden files); every file since holds float64. The one reader
+    # (open_dataset) casts the old to float64, so old and new compare, align and select
+    # alike: the smoke reference against a fresh run of its scene and against itself with a
+    # float coordinate, both ways, with every value equal.
+    import netCDF4
+
+    with netCDF4.Dataset(SMOKE_REFERENCE) as nc:
+        assert nc["harmonic"].dtype == np.int32
+    old = open_dataset(SMOKE_REFERENCE)
+    assert old.harmonic.dtype == np.float64 and old.harmonic.values.tolist() == [1.0, 2.0]
+    assert old.harmonic.attrs["long_name"] == "harmonic order k of the transmitted normal force"
+    new = tmp_path / "smoke.nc"
+    code, _, err = run_cli(["sweep", SMOKE, "-o", new, "-q"], capsys)
+    assert code == 0, err
+    with netCDF4.Dataset(new) as nc:
+        assert nc["harmonic"].dtype == np.float64
+    for pair in ((new, SMOKE_REFERENCE), (SMOKE_REFERENCE, new)):
+        code, out, _ = run_cli(["compare", *pair, "--json"], capsys)
+        report = json.loads(out)
+        assert code == 0 and report["coordinate_mismatches"] == [], report["summary"]
+        assert report["variables"]["amplitude"]["failing"] == 0
+    assert float(old.amplitude.sel(harmonic=2).max()) == pytest.approx(
+        float(open_dataset(new).amplitude.sel(harmonic=2.0).max()), rel=1e-12
+    )

@@ -64,11 +64,27 @@ BAD = [
     ("[excitation]\nsigma = []\n", "excitation.sigma", "non-empty"),
     ("[excitation]\nsigma = [0.01, -0.02]\n", "excitation.sigma", "positive"),
     ("[solver]\nsteps_per_period = 3\n", "solver.steps_per_period", "stability limit"),
-    ("[lockin]\nharmonics = [0]\n", "lockin.harmonics", "at least 1"),
+    ("[lockin]\nharmonics = [0]\n", "lockin.harmonics", "orders > 0"),
+    ("[lockin]\nharmonics = [0.2, 1]\n", "lockin.harmonics", "multiples of 1/2, 1/3, 1/4"),
+    ("[lockin]\nharmonics = [0.5, 1, 0.5]\n", "lockin.harmonics", "distinct"),
     ("[solver]\nmax_steps = 0\n", "solver.max_steps", "at least 1"),
     ("[lockin]\nharmonics = [1, 128]\n", "lockin.harmonics", "Nyquist"),
     ("[sweep]\nstep = 1e-7\n", "sweep.step", "more than 100000"),
 ]
+
+
+def test_fractional_orders_are_stored_as_their_fractions(tmp_path):
+    # Whole orders stay ints (the datasets' config of a scene of whole orders is as
+    # before); the others are the float of their fraction, within 1e-9: 0.3333333333 is
+    # 1/3 to the last bit, and the common denominator L is the lcm of the denominators
+    text = "[lockin]\nharmonics = [2, 0.3333333333, 1.5, 0.25, 1.0]\n"
+    lockin = load_scene(write(tmp_path, RIG + text)).lockin
+    assert lockin.harmonics == (0.25, 1 / 3.0, 1, 1.5, 2)
+    assert [type(k) for k in lockin.harmonics] == [float, float, int, float, int]
+    assert lockin.denominator == 12
+    halves = load_scene(CONFIGS / "default.toml", ["lockin.harmonics=[2, 1.5, 1, 0.5]"]).lockin
+    assert halves.harmonics == (0.5, 1, 1.5, 2) and halves.denominator == 2
+    assert load_scene(CONFIGS / "default.toml").lockin.denominator == 1
 
 
 @pytest.mark.parametrize("tables, key, reason", BAD)

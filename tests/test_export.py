@@ -110,6 +110,30 @@ def test_export_leaves_out_what_was_not_settled(tmp_path, capsys, sweep_file):
     assert "left out 3 of 40 points" in printed
 
 
+def test_export_writes_the_whole_orders_of_a_fractional_sweep(tmp_path, capsys):
+    # UFF's func_id and the CSVs' harmonic column hold whole orders: of a sweep reading
+    # H1/2, H1, H3/2, H2 the export writes H1 and H2 (the same values as a sweep of them
+    # alone) and counts the points of H1/2 and H3/2 in its one line
+    halves = {**SETTLED, "lockin.harmonics": [0.5, 1, 1.5, 2]}
+    ds = hs.sweep(hs.load_scene(CONFIGS / "smoke.toml", overrides=halves))
+    path = hs.save(ds, tmp_path / "halves.nc")
+    code, printed, err = run_cli(["export", path, "-o", tmp_path / "h.uff"], capsys)
+    assert code == 0, err
+    assert "wrote 8 UFF 58b sets of 40 points" in printed  # 2 x 2 levels x H1, H2
+    assert "orders 1/2, 3/2 not written (func_id holds whole orders)" in printed
+    csv = tmp_path / "h.csv"
+    code, printed, err = run_cli(["export", path, "-o", csv, "--format", "csv"], capsys)
+    assert code == 0, err
+    assert "left out 40 of 80 points (0 not settled or not measured, 40 of a fractional" in printed
+    code, _, err = run_cli(["import", tmp_path / "h.uff", "-o", tmp_path / "m.nc"], capsys)
+    assert code == 0, err
+    back = hs.open_dataset(tmp_path / "m.nc")
+    assert back.harmonic.values.tolist() == [1.0, 2.0] and back.harmonic.dtype == np.float64
+    a = ds.sel(direction="up", harmonic=2).isel(sigma=0).amplitude.values
+    b = back.sel(direction="up", harmonic=2).isel(sigma=0).amplitude.values
+    np.testing.assert_allclose(b, a, rtol=1e-12)
+
+
 def test_export_refuses_a_trace(tmp_path, capsys):
     trace = hs.trace(hs.load_scene(CONFIGS / "smoke.toml", overrides=SETTLED), 0.98, periods=2)
     path = hs.save(trace, tmp_path / "t.nc")

@@ -825,3 +825,49 @@ def test_pdf_and_svg_metadata(sweep_ds, tmp_path, capsys):
         data = out.read_bytes()
         for needle in expected:
             assert needle in data, (suffix, needle)
+
+
+def test_fractional_orders_are_drawn_and_named_as_fractions(tmp_path, capsys):
+    # A sweep reading H1/2 .. H2: a row per order, each labelled with its order as a
+    # fraction ($H_{1/2}$, $H_{3/2}$; whole ones as before), --harmonic takes "1/2" or 0.5,
+    # and the summary's peak and jumps go by H1 whatever order comes first
+    scene = make_scene(
+        excitation={"sigma": [0.01]},
+        sweep={"start": 0.97, "stop": 0.99, "step": 0.01, "settle_periods": 50,
+               "measure_periods": 4},
+        lockin={"harmonics": [0.5, 1, 1.5, 2]},
+    )  # fmt: skip
+    result = run_sweep(scene)
+    ds = sweep_dataset(result, scene).to_xarray()
+    fig = figure(ds)
+    labels = [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel()]
+    assert labels[:2] == [
+        "$H_{1/2}$ amplitude of $N/F_s$ [1]",
+        "$H_{1/2}$ phase lag, unwrapped [degree]",
+    ]
+    assert [label.split("$")[1] for label in labels[::2]] == [
+        "H_{1/2}",
+        "H_{1}",
+        "H_{3/2}",
+        "H_{2}",
+    ]
+    chosen = plot.select_harmonics(ds, ["1/2", 2.0])
+    assert chosen.harmonic.values.tolist() == [0.5, 2.0]
+    with pytest.raises(
+        HertzsweepError, match=r"--harmonic: 1/3 not in the dataset \(it holds 1/2, 1, 3/2, 2\)"
+    ):
+        plot.select_harmonics(ds, ["1/3"])
+    with pytest.raises(HertzsweepError, match="--harmonic: '0.2' is not an order > 0"):
+        plot.select_harmonics(ds, ["0.2"])
+    source = tmp_path / "halves.nc"
+    write_atomic(ds, source)
+    code, _, err = run_cli(["plot", source, "-o", tmp_path / "f.png", "--harmonic", "3/2"], capsys)
+    assert code == 0, err
+    from hertzsweep.output.summary import sweep_summary
+
+    lines = sweep_summary(result, ds).splitlines()
+    assert "peak H1" in lines[0]
+    peak = float(lines[1].split()[2])
+    assert peak == pytest.approx(
+        float(ds.amplitude.sel(harmonic=1).isel(direction=0).max()), abs=1e-4
+    )

@@ -240,6 +240,28 @@ def test_nyquist_in_the_file_names_the_file(tmp_path, capsys):
     assert "Nyquist" in one_line(code, err, str(path), "lockin.harmonics")
 
 
+# --------------------------------------------------------------------------- fractional orders
+def test_measure_periods_a_multiple_of_the_orders_denominator(tmp_path, capsys):
+    # H1/2 and H3/2 read exactly only over whole periods of 2 excitation periods, H1/3
+    # and H1/4 of 12: validate refuses a measure_periods that is not a multiple of L, in
+    # one line naming both numbers; a multiple passes, as does the trace's --periods
+    code, _, err = validate(DEFAULT, capsys, "lockin.harmonics=[0.5, 1, 1.5]",
+                            "sweep.measure_periods=21")  # fmt: skip
+    reason = one_line(code, err, "--set", "sweep.measure_periods")
+    assert reason.startswith("21 is not a multiple of 2, the common denominator of ")
+    assert "lockin.harmonics = [0.5, 1, 1.5]" in reason and "measure_periods = 20" in reason
+    path = scene_file(tmp_path, "[lockin]\nharmonics = [0.25, 0.3333333333333333, 1]\n")
+    reason = one_line(*validate(path, capsys)[::2], str(path), "sweep.measure_periods")
+    assert reason.startswith("20 is not a multiple of 12")
+    assert validate(path, capsys, "sweep.measure_periods=24")[0] == 0
+    assert validate(DEFAULT, capsys, "lockin.harmonics=[0.5, 1]")[0] == 0  # 20 = 10 x 2
+    out = tmp_path / "trace.nc"
+    argv = ["trace", DEFAULT, "-w", "0.97", "-o", out, "--periods", "5", "-q"]
+    code, _, err = run_cli([*argv, "--set", "lockin.harmonics=[0.5, 1]"], capsys)
+    assert one_line(code, err, "trace", "--periods").startswith("5 is not a multiple of 2")
+    assert not out.exists()
+
+
 # --------------------------------------------------------------------------- the grid
 def test_grid_too_long_is_counted_not_built(capsys):
     # stop = 1e300 is 4e302 points (numpy refused to build it: ValueError); step = 1e-9

@@ -261,7 +261,8 @@ CHECKS = {  # a validator of hertzsweep.core.config -> what it accepts
     "_sigma_list": "a number > 0, or a list of distinct ones",
     "_directions": '`"up"`, `"down"`, or a list of one or both',
     "_settle": 'a whole number >= 0, or `"auto"`',
-    "_harmonics": "a whole number >= 1, or a list of distinct ones",
+    "_harmonics": "an order > 0, whole or a multiple of 1/2, 1/3, 1/4 (within 1e-9), or a "
+    "list of distinct ones",
     "_period_multiple": "a whole number, 1 to 8",
     "_boolean": "`true` or `false`",
     "_initial_state": "two finite numbers `[q, dq]`",

@@ -633,7 +633,7 @@ def plot(
     ds: xr.Dataset | str | os.PathLike,
     view: str | None = None,
     *,
-    harmonics: Sequence[int] | None = None,
+    harmonics: Sequence[float | str] | None = None,
     sigmas: Sequence[float] | None = None,
     overlay: xr.Dataset | str | os.PathLike | None = None,
     wrap_phase: bool = False,
@@ -651,8 +651,9 @@ def plot(
         ``harmonics``, ``amplitude``; study ``jumps``, ``subharmonic``; accuracy
         ``errors``; measured and fit ``auto``, ``harmonics``, ``amplitude``, ``jumps``;
         random ``psd``, ``pdf``, ``loss``.
-    harmonics : sequence of int, optional
-        Draw only these harmonics (sweep, branch).
+    harmonics : sequence of orders, optional
+        Draw only these harmonics (sweep, branch): numbers, or texts such as ``"2"``,
+        ``"1/2"``.
     sigmas : sequence of float, optional
         Draw only these input levels.
     overlay : xarray.Dataset or path, optional

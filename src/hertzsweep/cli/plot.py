@@ -22,10 +22,10 @@ DEFAULT_DPI = 200  # print quality: hertzsweep.output.plot.DPI (not imported: no
 @click.option(
     "--harmonic",
     "harmonics",
-    type=int,
+    type=str,
     multiple=True,
     metavar="K",
-    help="Draw only harmonic K (sweep, branch); repeatable.",
+    help="Draw only harmonic K (sweep, branch), e.g. 2 or 1/2; repeatable.",
 )
 @click.option(
     "--sigma",
@@ -57,7 +57,7 @@ def plot_command(
     input_file: str,
     output: str,
     view: str | None,
-    harmonics: tuple[int, ...],
+    harmonics: tuple[str, ...],
     sigmas: tuple[float, ...],
     overlay: str | None,
     wrap_phase: bool,

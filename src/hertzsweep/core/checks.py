@@ -10,6 +10,8 @@ raises a :class:`~hertzsweep.errors.ConfigError` naming the file and the key:
   all positive and distinct at the grid's rounding (12 decimals);
 - ``solver.steps_per_period`` is at most :data:`MAX_STEPS_PER_PERIOD`;
 - every lock-in harmonic lies below the Nyquist order ``steps_per_period / 2``;
+- ``sweep.measure_periods`` is a multiple of the lock-in's common denominator L (orders
+  that are not whole are read over whole response periods of L excitation periods);
 - the run's integration steps are within the budget (``solver.max_steps``, default
   :data:`DEFAULT_MAX_STEPS`);
 - its result arrays are within :data:`MEMORY_BUDGET`;
@@ -21,7 +23,8 @@ its time step is within the stability limit at the largest force the linear resp
 suggests, and its steps and memory (the forcing of every realisation included) are within
 the same budgets.
 
-:func:`check_record` adds the record of ``hertzsweep trace`` (its memory and steps).
+:func:`check_record` adds the record of ``hertzsweep trace`` (its memory and steps, and its
+periods a multiple of the lock-in's common denominator).
 
 This module imports neither numba nor xarray: ``validate`` stays light.
 """
@@ -60,7 +63,8 @@ from .rig import RigConstants, derive
 # trajectory, and a grid is built (and its results kept) as arrays of this length.
 MAX_POINTS = 100_000
 # The most steps per period: the excitation and lock-in tables hold N floats each (8 MiB
-# apiece at 2**20), and 2**20 steps resolve a period 4000 times finer than the default 256.
+# apiece at 2**20; the lock-in's N L for orders of common denominator L <= 12), and 2**20
+# steps resolve a period 4000 times finer than the default 256.
 MAX_STEPS_PER_PERIOD = 2**20
 # The default budget of integration steps of one run (``solver.max_steps`` raises it): at
 # about 9 ns a step (the lockstep kernel's 7.1 ns plus the dwell's overheads), 1e11 steps
@@ -243,6 +247,30 @@ def check_harmonics(scene: Scene) -> None:
             "solver.steps_per_period" if coarser > higher else "lockin.harmonics",
             f"harmonic {highest} is not below the Nyquist order steps_per_period / 2 = "
             f"{steps / 2:g} (raise solver.steps_per_period above {2 * highest})",
+        )
+
+
+def _orders(scene: Scene) -> str:
+    """The lock-in's orders as the scene file writes them."""
+    return "[" + ", ".join(f"{k:g}" for k in scene.lockin.harmonics) + "]"
+
+
+def check_measure_periods(scene: Scene) -> None:
+    """``sweep.measure_periods`` a multiple of the lock-in's common denominator L
+    (:attr:`~hertzsweep.core.config.LockinConfig.denominator`): an order k that is not
+    whole (1/2, 1/3, 1/4, ...) is read exactly only over whole response periods of L
+    excitation periods, and a dwell's blocks (its two halves, ``"auto"``'s blocks) are
+    each such a span."""
+    common = scene.lockin.denominator
+    periods = scene.sweep.measure_periods
+    if periods % common:
+        raise ConfigError(
+            scene.source,
+            "sweep.measure_periods",
+            f"{periods} is not a multiple of {common}, the common denominator of "
+            f"lockin.harmonics = {_orders(scene)}: those orders are read over whole periods "
+            f"of {common} excitation periods (e.g. measure_periods = "
+            f"{max(common, periods - periods % common)})",
         )
 
 
@@ -692,6 +720,7 @@ def preflight(scene: Scene) -> Figures:
     check_steps_per_period(scene)
     limit = check_stability_limit(scene)
     check_harmonics(scene)
+    check_measure_periods(scene)
     steps = check_steps(scene, grid.size)
     memory = check_memory(scene, grid.size)
     return Figures(
@@ -775,6 +804,20 @@ def record_bytes(scene: Scene, samples: int) -> int:
     return samples * per_sample + sigma * FLOAT
 
 
+def check_record_periods(scene: Scene, periods: int, source: str = "trace") -> None:
+    """A trace's recorded ``periods`` (``--periods``) a multiple of the lock-in's common
+    denominator, as :func:`check_measure_periods` asks of ``sweep.measure_periods``."""
+    common = scene.lockin.denominator
+    if periods % common:
+        raise ConfigError(
+            source,
+            "--periods",
+            f"{periods} is not a multiple of {common}, the common denominator of "
+            f"lockin.harmonics = {_orders(scene)}: those orders are read over whole periods "
+            f"of {common} excitation periods",
+        )
+
+
 def check_record(
     scene: Scene,
     periods: int,
@@ -783,7 +826,8 @@ def check_record(
 ) -> bool:
     """The memory of ``hertzsweep trace``'s record of ``periods`` periods
     (:func:`record_bytes`), refused beyond :data:`MEMORY_BUDGET`, and its integration
-    steps, refused beyond :func:`max_steps`; before anything is allocated.
+    steps, refused beyond :func:`max_steps`; before anything is allocated. ``periods``
+    must be a multiple of the lock-in's common denominator (:func:`check_measure_periods`).
 
     The trace reaches its frequency through at most every grid point, then dwells there
     and records: at most ``sigma x ((points + 1) x periods_per_dwell + periods) x
@@ -794,6 +838,7 @@ def check_record(
     """
     if isinstance(periods, bool) or not isinstance(periods, int | np.integer) or periods < 1:
         return False
+    check_record_periods(scene, periods, source)
     steps_per_period = scene.solver.steps_per_period
     samples = steps_per_period
     if (
@@ -840,9 +885,11 @@ __all__ = [
     "Figures",
     "check_grid",
     "check_record",
+    "check_record_periods",
     "streams_record",
     "check_rig",
     "check_harmonics",
+    "check_measure_periods",
     "check_steps_per_period",
     "check_stability_limit",
     "check_steps",

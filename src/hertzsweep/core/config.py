@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from .lockin import common_denominator, order_fraction
 
 GRAVITY = 9.81  # [m s^-2] default static load is mass * GRAVITY, as in the paper (F_s = mg)
 STEEL_DENSITY = 7810.0  # [kg m^-3] 100C6 bearing steel; default ball mass from its volume
@@ -191,9 +192,17 @@ class RandomConfig:
 
 @dataclass(frozen=True)
 class LockinConfig:
-    """Harmonics of N/F_s read by the lock-in amplifier."""
+    """Harmonics of N/F_s read by the lock-in amplifier: whole orders (ints) and multiples
+    of 1/2, 1/3 and 1/4 of the excitation frequency (floats, each the float of its
+    fraction: 1/3 is ``1 / 3.0``), ascending."""
 
-    harmonics: tuple[int, ...] = (1, 2)
+    harmonics: tuple[int | float, ...] = (1, 2)
+
+    @property
+    def denominator(self) -> int:
+        """L, the least common multiple of the orders' denominators (1, 2, 3, 4, 6 or 12):
+        a reading spans whole response periods of L excitation periods."""
+        return common_denominator(self.harmonics)
 
 
 @dataclass(frozen=True)
@@ -447,11 +456,25 @@ def _settle(source: str, key: str, value: Any) -> int | None:
     return x
 
 
-def _harmonics(source: str, key: str, value: Any) -> tuple[int, ...]:
+def _harmonics(source: str, key: str, value: Any) -> tuple[int | float, ...]:
+    """Distinct orders k > 0, each whole or a multiple of 1/2, 1/3 or 1/4 (within
+    :data:`~hertzsweep.core.lockin.ORDER_TOLERANCE`): a whole order as an int, another as
+    the float of its fraction (0.333 is not 1/3: refused), ascending."""
     items = value if isinstance(value, list) else [value]
-    out = tuple(_positive_int(source, key, v) for v in items)
+    expected = "distinct orders > 0, whole or multiples of 1/2, 1/3, 1/4 (e.g. [0.5, 1, 1.5, 2])"
+    out = []
+    for item in items:
+        if isinstance(item, bool) or not isinstance(item, int | float):
+            raise ConfigError(source, key, f"expected {expected}, got {value!r}")
+        fraction = order_fraction(item) if item > 0 else None  # None for NaN, inf, <= 0
+        if fraction is None:
+            raise ConfigError(source, key, f"expected {expected}, got {item!r} in {value!r}")
+        if fraction.denominator == 1:
+            out.append(int(fraction.numerator))
+        else:
+            out.append(fraction.numerator / float(fraction.denominator))
     if not out or len(set(out)) != len(out):
-        raise ConfigError(source, key, f"expected distinct whole numbers >= 1, got {value!r}")
+        raise ConfigError(source, key, f"expected {expected}, got {value!r}")
     return tuple(sorted(out))
 
 
@@ -634,7 +657,9 @@ DESCRIPTIONS: dict[str, str] = {
     "limit)",
     "solver.max_steps": "budget of integration steps of one run: a longer run is refused before "
     "it starts (default: hertzsweep.core.checks.DEFAULT_MAX_STEPS)",
-    "lockin.harmonics": "harmonic orders of N/F_s read by the lock-in",
+    "lockin.harmonics": "harmonic orders k of N/F_s read by the lock-in: whole, or multiples of "
+    "1/2, 1/3, 1/4 (e.g. [0.5, 1, 1.5, 2]: sweep.measure_periods is then a multiple of their "
+    "common denominator)",
     "model.kind": "single (one degree of freedom, eq. 1/8/11) or ball (the moving mass on the "
     "ball between two Hertz contacts)",
     "excitation.kind": "sine (the stepped sine of sweep) or random (band-limited Gaussian noise "

@@ -40,6 +40,7 @@ stop short of the far end (``Branch.end``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -783,6 +784,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     each cluster of grazing folds once (:func:`_fold_clusters`)."""
     ordered = _ordered(state)
     oscillator = run.oscillator
+    periods = math.lcm(run.periods, oscillator.denominator)  # whole periods of every order
     harmonics = list(oscillator.harmonics)
     h1 = harmonics.index(1) if 1 in harmonics else None
     readings: list[Reading] = []
@@ -790,7 +792,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     for i, (point, _) in enumerate(ordered):
         w = float(point.y[-1])
         state_at = run.period.state(point.y[:-1], w)
-        _, reading = oscillator.measure(state_at, w, run.periods)
+        _, reading = oscillator.measure(state_at, w, periods)  # whole periods
         readings.append(reading)
         multipliers[i] = sorted_multipliers(point.evaluation.monodromy)
     candidates = [i for i, (_, kind) in enumerate(ordered) if kind is not None]
@@ -804,7 +806,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     def stack(name: str) -> np.ndarray:
         return np.array([getattr(r, name) for r in readings])
 
-    steps_measured = len(ordered) * oscillator.steps_per_period * run.periods
+    steps_measured = len(ordered) * oscillator.steps_per_period * periods
     return Branch(
         sigma=oscillator.sigma,
         frequency_ratio=np.array([p.y[-1] for p, _ in ordered]),
@@ -1056,7 +1058,7 @@ def run_branch(
         steps += branch.steps
     return BranchResult(
         sigma=np.asarray(scene.excitation.sigma, dtype=float),
-        harmonics=np.asarray(scene.lockin.harmonics, dtype=np.int64),
+        harmonics=np.asarray(scene.lockin.harmonics, dtype=np.float64),
         branches=branches,
         start_frequency_ratio=w_begin,
         end_frequency_ratio=w_end,

@@ -153,8 +153,8 @@ class SweepMeasurements(MeasuredPoints):
 
     Attributes
     ----------
-    harmonic : int[M]
-        Order k of the reading.
+    harmonic : float[M]
+        Order k of the reading (whole, or a multiple of 1/2, 1/3, 1/4 in a sweep's).
     amplitude : float[M]
         [1] peak amplitude A_k of N/F_s.
     phase : float[M]

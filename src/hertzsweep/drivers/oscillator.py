@@ -52,6 +52,17 @@ def drive(scene: Scene, sigma: np.ndarray | float):
     return method(scene).drive(sigma, scene.lockin.harmonics, int(scene.solver.steps_per_period))
 
 
+def measured_blocks(measure_periods: int, denominator: int = 1) -> tuple[int, ...]:
+    """The measured blocks of a fixed-settle dwell (:meth:`Oscillator.dwell`): two halves,
+    the first the largest whole number of response periods (``denominator`` L excitation
+    periods each: orders that are not whole read exactly only over such spans) up to half;
+    one block when there are fewer than two response periods."""
+    if measure_periods < 2 * denominator:
+        return (measure_periods,)
+    first = (measure_periods // (2 * denominator)) * denominator
+    return (first, measure_periods - first)
+
+
 @dataclass(frozen=True)
 class State:
     """The state at excitation phase 0 and step ``h`` (in tau): q and the method's other
@@ -308,7 +319,8 @@ class Oscillator:
         self.steps_per_period = int(scene.solver.steps_per_period)
         self.method = method(scene)
         self.drive = drive(scene, self.sigma)
-        self.harmonics = self.drive.harmonics
+        self.harmonics = self.drive.harmonics  # the orders k, float64[K]
+        self.denominator = scene.lockin.denominator  # L: a reading spans L periods or more
         self.periodic_tolerance = max(PERIODIC_TOLERANCE_FLOOR, 10.0 * scene.sweep.tolerance)
         self.steps = 0  # integration steps taken, for cost accounting
 
@@ -399,7 +411,8 @@ class Oscillator:
         settled)``.
 
         Fixed settling: ``settle_periods`` periods, then the measured periods in two
-        halves whose readings must agree within ``tolerance`` for ``settled``.
+        halves (:func:`measured_blocks`) whose readings must agree within ``tolerance``
+        for ``settled``.
         ``"auto"``: blocks of ``measure_periods`` until two consecutive readings agree
         within ``tolerance`` (relative), at most ``max_settle_periods`` of settling;
         ``settled`` is false where that cap was hit.
@@ -408,13 +421,12 @@ class Oscillator:
         state = self.retune(state, frequency_ratio)
         if sweep.settle_periods is not None:
             state = self.advance(state, frequency_ratio, sweep.settle_periods)
-            periods = sweep.measure_periods
-            if periods < 2:
-                state, reading = self.measure(state, frequency_ratio, periods)
+            blocks = measured_blocks(sweep.measure_periods, self.denominator)
+            if len(blocks) == 1:
+                state, reading = self.measure(state, frequency_ratio, blocks[0])
                 return state, reading, reading.periodic
-            first = periods // 2
-            state, head = self.measure_block(state, frequency_ratio, first)
-            state, tail = self.measure_block(state, frequency_ratio, periods - first)
+            state, head = self.measure_block(state, frequency_ratio, blocks[0])
+            state, tail = self.measure_block(state, frequency_ratio, blocks[1])
             return state, head.then(tail).at(0), bool(head.agrees(tail, sweep.tolerance)[0])
         block = sweep.measure_periods
         state, previous = self.measure_block(state, frequency_ratio, block)
@@ -438,4 +450,12 @@ def dwell_by_dwell(dwell, oscillator: Oscillator, state: State, frequencies):
         yield slice(position, position + 1), Block.of(reading, state), np.array([settled])
 
 
-__all__ = ["Block", "Oscillator", "Reading", "State", "drive", "dwell_by_dwell"]
+__all__ = [
+    "Block",
+    "Oscillator",
+    "Reading",
+    "State",
+    "drive",
+    "dwell_by_dwell",
+    "measured_blocks",
+]

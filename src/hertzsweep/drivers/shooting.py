@@ -29,6 +29,7 @@ polish by Newton.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -424,8 +425,8 @@ def shooting_dwell(
     period = PeriodMap(oscillator, oscillator.scene.sweep.period_multiple)
     state = oscillator.retune(state, frequency_ratio)
     orbit = find_orbit(period, state, frequency_ratio)
-    stable = CONVERGED_PERIODS * period.periods
-    measured = stable if orbit.stable else oscillator.scene.sweep.measure_periods
+    converged = CONVERGED_PERIODS * math.lcm(period.periods, oscillator.denominator)
+    measured = converged if orbit.stable else oscillator.scene.sweep.measure_periods
     state, reading = oscillator.measure(orbit.state, frequency_ratio, measured)
     return state, reading, orbit.stable
 
@@ -494,7 +495,7 @@ def _walked(oscillator: Oscillator, buffers: Readout, steps: np.ndarray, start: 
             buffers.coefficients[:, :, run], buffers.sums[:, run], buffers.counts[:, run],
             buffers.record, 0, buffers.extra[:, run],
         )  # fmt: skip
-        samples = CONVERGED_PERIODS * oscillator.steps_per_period
+        samples = CONVERGED_PERIODS * oscillator.denominator * oscillator.steps_per_period
         block = Block.read(done, samples, steps[run], oscillator.periodic_tolerance)
         yield run, block, np.ones(stop - start, dtype=bool)
 

@@ -15,11 +15,12 @@ import numpy as np
 
 from ..core.ballmode import has_ball_mode
 from ..core.config import Scene
+from ..core.lockin import first_harmonic_index
 from ..core.model import check_stability
 from ..errors import HertzsweepError, Interrupted
 from ..kernels import scheme
 from .ballmode import BallModeCheck
-from .oscillator import Block, Oscillator, drive
+from .oscillator import Block, Oscillator, drive, measured_blocks
 from .period import response_periods
 from .readings import BALL_FIELDS, HARMONIC_FIELDS, READING_FIELDS, SCALAR_FIELDS, Readings
 from .steady import strategy
@@ -61,7 +62,7 @@ class SweepResult(Readings):
         directions = scene.sweep.directions
         sigma = np.asarray(scene.excitation.sigma, dtype=float)
         w = scene.sweep.frequency_ratios
-        harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
+        harmonics = np.asarray(scene.lockin.harmonics, dtype=np.float64)
         shape = (len(directions), sigma.size, w.size)
 
         def nan(*extra: int) -> np.ndarray:
@@ -147,8 +148,10 @@ def sweep_order(frequency_ratios: np.ndarray, direction: str) -> np.ndarray:
 def find_jump(
     amplitude: np.ndarray, frequency_ratios: np.ndarray, direction: str, threshold: float
 ) -> float:
-    """Where H1 jumped: the last frequency before the largest relative change of H1
-    between neighbouring frequencies (in sweep order), if that change exceeds
+    """Where H1 jumped (``amplitude``: of the order
+    :func:`~hertzsweep.core.lockin.first_harmonic_index` picks): the last frequency before
+    the largest relative change of H1 between neighbouring frequencies (in sweep order), if
+    that change exceeds
     ``threshold`` of the larger of the two values; NaN if none does.
 
     The default threshold 0.3 lies above the largest step-to-step change of a linear
@@ -254,7 +257,7 @@ def run_sweep(
                 oscillator = run_direction(scene, sigma, direction, result, progress)
                 result.steps += oscillator.steps
                 result.jump_frequency_ratio[d, s] = find_jump(
-                    result.amplitude[d, s, :, 0],
+                    result.amplitude[d, s, :, first_harmonic_index(result.harmonics)],
                     result.frequency_ratio,
                     direction,
                     scene.sweep.jump_threshold,
@@ -273,14 +276,6 @@ def lockstep(scene: Scene) -> bool:
     """Whether the scene's trajectories can dwell in lockstep (fixed settling, settle
     steady state); otherwise :func:`run_sweep_batched` runs them one by one."""
     return scene.sweep.settle_periods is not None and scene.sweep.steady_state == "settle"
-
-
-def measured_blocks(measure_periods: int) -> tuple[int, ...]:
-    """The measured blocks of a fixed-settle dwell, as ``Oscillator.dwell`` reads them."""
-    if measure_periods < 2:
-        return (measure_periods,)
-    first = measure_periods // 2
-    return (first, measure_periods - first)
 
 
 class Lockstep:
@@ -318,8 +313,8 @@ class Lockstep:
         if status != scheme.OK:
             return status, bad, None, None
         blocks = []
-        for periods in measured_blocks(sweep.measure_periods):
-            buffers = self.method.new_readout(self.drive.harmonics.size, len(self.q))
+        for periods in measured_blocks(sweep.measure_periods, self.scene.lockin.denominator):
+            buffers = self.method.new_readout(self.drive.orders.size, len(self.q))
             status, bad = self.measure(
                 self.q_prev, self.q, self.h, self.law, self.drive, periods, buffers
             )
@@ -385,9 +380,10 @@ def _run_lockstep(
     result.steps = run.steps
     if ball is not None:
         result.steps += result.read_ball_mode(ball, run.oscillators[0])
+    h1 = first_harmonic_index(result.harmonics)
     for d, s in pairs:
         result.jump_frequency_ratio[d, s] = find_jump(
-            result.amplitude[d, s, :, 0], w, result.directions[d], scene.sweep.jump_threshold
+            result.amplitude[d, s, :, h1], w, result.directions[d], scene.sweep.jump_threshold
         )
     result.finished[:] = True
     result.read_subharmonics()

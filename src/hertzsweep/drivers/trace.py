@@ -24,6 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from ..core.ballmodel import BallModel
+from ..core.checks import check_record_periods
 from ..core.config import Scene
 from ..core.model import check_stability
 from ..errors import ConfigError, HertzsweepError
@@ -250,13 +251,16 @@ def longest_flight(start: np.ndarray, end: np.ndarray, complete: np.ndarray, spa
 
 # --------------------------------------------------------------------------- recording
 CHUNK_SAMPLES = 1 << 16  # samples per sigma recorded per call of the kernel (2 MB of
-# record): whole periods, at least one. The readings of the chunks combine
+# record): whole response periods, at least one. The readings of the chunks combine
 # (:meth:`~.oscillator.Block.then`), the flights join across them (:class:`FlightLog`).
 
 
-def chunk_periods(samples_per_period: int) -> int:
-    """Whole periods per recorded chunk (:data:`CHUNK_SAMPLES`, at least one)."""
-    return max(1, CHUNK_SAMPLES // int(samples_per_period))
+def chunk_periods(samples_per_period: int, denominator: int = 1) -> int:
+    """Whole periods per recorded chunk (:data:`CHUNK_SAMPLES`, at least one): a multiple
+    of the lock-in's common denominator L, so that each chunk's reading of an order that
+    is not whole is one over whole response periods and the chunks' sums add."""
+    periods = max(1, CHUNK_SAMPLES // int(samples_per_period))
+    return max(denominator, periods - periods % denominator)
 
 
 class RecordSink(Protocol):
@@ -328,13 +332,14 @@ class _Recorder:
         per_period: int,
         stride: int,
         columns: tuple[int, Callable[[np.ndarray], np.ndarray]],
+        denominator: int = 1,
     ) -> None:
         self.sink = sink
         width, self.flight_view = columns
         self.per_period = per_period
         self.periods = analyser.samples // per_period
         self.stride = stride
-        self.chunk = chunk_periods(per_period)
+        self.chunk = chunk_periods(per_period, denominator)
         self.chunk_samples = min(self.chunk, self.periods) * per_period  # the longest chunk
         self.record = self.force = None
         if sink is None:
@@ -416,7 +421,8 @@ def run_trace(
     frequency_ratio : float
         W = f/f0 [1].
     periods : int
-        Whole excitation periods P to record.
+        Whole excitation periods P to record, a multiple of the lock-in's common
+        denominator L (whole response periods for orders that are not whole).
     branch : {"upper", "lower"}
         Reach W as a down sweep from ``sweep.stop`` or an up sweep from ``sweep.start``.
     samples_per_period : int, optional
@@ -439,11 +445,12 @@ def run_trace(
     Raises
     ------
     ConfigError
-        Bad frequency, periods, branch or samples per period.
+        Bad frequency, periods (or not a multiple of L), branch or samples per period.
     StabilityError, IntegrationError
         As for a sweep.
     """
     check_trace(frequency_ratio, periods, branch)
+    check_record_periods(scene, periods)
     samples_per_period = resolve_samples_per_period(scene, samples_per_period)
     w = float(frequency_ratio)
     check_stability(scene, lowest=min(w, float(scene.sweep.frequency_ratios.min())))
@@ -451,14 +458,16 @@ def run_trace(
     stride = scene.solver.steps_per_period // samples_per_period
     sample_step = scheme.step_size(w, scene.solver.steps_per_period) * stride
     sigma = np.asarray(scene.excitation.sigma, dtype=float)
-    harmonics = np.asarray(scene.lockin.harmonics, dtype=np.int64)
+    harmonics = np.asarray(scene.lockin.harmonics, dtype=np.float64)
     samples = periods * samples_per_period
     path = approach_path(scene.sweep.frequency_ratios, w, branch)
     dwell = strategy(scene).dwell
 
     analyser = AmplitudeSpectrum(samples)
     columns = record_layout(scene)
-    recorder = _Recorder(sink, sigma.size, analyser, samples_per_period, stride, columns)
+    recorder = _Recorder(
+        sink, sigma.size, analyser, samples_per_period, stride, columns, scene.lockin.denominator
+    )
     if sink is not None:
         sink.open(sigma.size, samples, recorder.chunk_samples, sample_step, columns[0])
     spectrum = np.empty((sigma.size, analyser.bins))

@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit
 
 from . import CACHE, integrate
-from .integrate import TALLY_START, Readout, _finish, _lockin_tables, tally
+from .integrate import TALLY_START, Readout, _finish, _lockin_tables, _next_index, tally
 from .integrate import inputs as inputs  # the single model's drive, as every method's
 from .laws import slopes, terms
 from .scheme import NON_FINITE, OK, STOPPED, UNSTABLE, forcing, period_tables
@@ -440,15 +440,15 @@ def measure(q_prev, q, h, model, drive, periods, readout):
     table = drive.sin_table
     n = table.shape[0]
     sums = _start_sums(readout, count)
-    fourier = np.zeros((2, drive.harmonics.shape[0], count))
+    fourier = np.zeros((2, drive.orders.shape[0], count))
     index, shift = _lockin_tables(drive)
+    references = drive.lockin_sin.shape[0]
     sample = np.empty(BALL_RECORD_COLUMNS)
     nothing = np.empty(0)
     recorded = 0
     for p in range(periods):
         if p == periods - 1:
             _end_state(model, rows, readout, 0)
-        index[:] = 0
         for j in range(n):
             sj = table[j]
             keep = readout.stride > 0 and (p * n + j) % readout.stride == 0
@@ -471,16 +471,14 @@ def measure(q_prev, q, h, model, drive, periods, readout):
                 _tally_row(readout.extra, UPPER, t, xu, upper_in)
                 _tally_row(readout.extra, FLIGHT, t, 0.0, upper_in or lower_in)
                 for i in range(index.shape[0]):
-                    fourier[0, i, t] += x * drive.cos_table[index[i]]
-                    fourier[1, i, t] += x * drive.sin_table[index[i]]
+                    fourier[0, i, t] += x * drive.lockin_cos[index[i]]
+                    fourier[1, i, t] += x * drive.lockin_sin[index[i]]
                 if keep:
                     for c in range(BALL_RECORD_COLUMNS):
                         readout.record[recorded, c, t] = sample[c]
             if keep:
                 recorded += 1
-            for i in range(index.shape[0]):
-                m = index[i] + shift[i]
-                index[i] = m - n if m >= n else m
+            _next_index(index, shift, references)
         status, bad = _status(model, rows, peaks, h, drive.stop)
         if status != OK:
             _store(model, rows, q_prev, q)

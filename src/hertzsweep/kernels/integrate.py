@@ -43,11 +43,21 @@ from .scheme import (
 )
 from .stop import REQUEST, requested
 
-Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "stop"])
+Drive = namedtuple(
+    "Drive",
+    ["sigma", "sin_table", "cos_table", "harmonics", "stop", "lockin_sin", "lockin_cos", "orders"],
+)
 """The input and the lock-in: ``sigma`` float[T] (input level of each trajectory),
-``sin_table``, ``cos_table`` float[N] (``sin``/``cos(2 pi j / N)``), ``harmonics`` int64[K]
-(orders demodulated, each below N/2), and ``stop`` (:data:`.stop.REQUEST`, polled once a
-period: a loop returns :data:`~.scheme.STOPPED` when it is set)."""
+``sin_table``, ``cos_table`` float[N] (``sin``/``cos(2 pi j / N)``: the excitation),
+``harmonics`` float64[K] (the orders k demodulated, each below N/2: whole, or multiples of
+1/2, 1/3, 1/4), ``stop`` (:data:`.stop.REQUEST`, polled once a period: a loop returns
+:data:`~.scheme.STOPPED` when it is set), and the lock-in's references: ``lockin_sin``,
+``lockin_cos`` float[N L] (``sin``/``cos(2 pi i / (N L))``, L the orders' common
+denominator, :func:`.methods.common_denominator`; entry ``j L`` is entry j of the
+excitation's table, the very same arrays when L = 1) and ``orders`` int64[K] (``m = k L``:
+order k advances m entries a step). A measured record starts at reference phase 0 and
+its index runs on over the periods (order k's phase after p periods is ``2 pi k p``), so a
+reading spans whole response periods of L excitation periods."""
 
 Readout = namedtuple("Readout", ["coefficients", "sums", "counts", "record", "stride", "extra"])
 """What :func:`measure` reads, per trajectory t (last axis):
@@ -228,12 +238,28 @@ def _finish(readout, t, acc, cos_sum, sin_sum):
 
 @njit(cache=CACHE)
 def _lockin_tables(drive):
-    """``(index, shift)``: each harmonic's position in the tables and its step (k mod N)."""
-    n = drive.sin_table.shape[0]
-    shift = np.empty(drive.harmonics.shape[0], dtype=np.int64)
+    """``(index, shift)``: each harmonic's position in the lock-in's tables (0: the first
+    measured step is at reference phase 0) and its step (``m mod N L``, ``m = k L``)."""
+    n = drive.lockin_sin.shape[0]
+    shift = np.empty(drive.orders.shape[0], dtype=np.int64)
     for i in range(shift.shape[0]):
-        shift[i] = drive.harmonics[i] % n
+        shift[i] = drive.orders[i] % n
     return np.zeros_like(shift), shift
+
+
+@njit(cache=CACHE, inline="always")
+def denominator(drive):
+    """L, the common denominator of the drive's orders (any method's drive: its lock-in's
+    tables hold L times the entries of its excitation's)."""
+    return drive.lockin_sin.shape[0] // drive.sin_table.shape[0]
+
+
+@njit(cache=CACHE, inline="always")
+def _next_index(index, shift, n):
+    """Every harmonic's table position one step on (the tables of ``n`` entries)."""
+    for i in range(index.shape[0]):
+        m = index[i] + shift[i]
+        index[i] = m - n if m >= n else m
 
 
 @njit(cache=CACHE, error_model="numpy", nogil=True)
@@ -250,15 +276,15 @@ def measure_one(q_prev, q, h, law, drive, periods, readout):
     d = to_compression(q[0])
     peak = 0.0
     acc = TALLY_START
-    cos_sum = np.zeros(drive.harmonics.shape[0])
+    cos_sum = np.zeros(drive.orders.shape[0])
     sin_sum = np.zeros_like(cos_sum)
     index, shift = _lockin_tables(drive)
+    references = drive.lockin_sin.shape[0]
     sample = 0
     for p in range(periods):
         if p == periods - 1:
             readout.sums[3, 0] = to_displacement(d_prev)
             readout.sums[4, 0] = to_displacement(d)
-        index[:] = 0
         for j in range(n):
             root, d_next, x, v = observe(law, d_prev, d, forcing(sigma, table[j]), k, s.rate)
             peak = root if root > peak else peak
@@ -267,10 +293,9 @@ def measure_one(q_prev, q, h, law, drive, periods, readout):
                 _sample(readout.record[sample, :, 0], d, v, x)
                 sample += 1
             for i in range(index.shape[0]):
-                cos_sum[i] += x * drive.cos_table[index[i]]
-                sin_sum[i] += x * drive.sin_table[index[i]]
-                m = index[i] + shift[i]
-                index[i] = m - n if m >= n else m
+                cos_sum[i] += x * drive.lockin_cos[index[i]]
+                sin_sum[i] += x * drive.lockin_sin[index[i]]
+            _next_index(index, shift, references)
             d_prev = d
             d = d_next
         status = _status(d_prev, d, peak, s.limit, drive.stop)
@@ -311,7 +336,7 @@ def _blocks(q_prev, q, s, drive):
     """The working array of :func:`measure`, filled in: float[blocks, rows x LANES],
     ``rows = FOURIER + 2 K``."""
     count = q.shape[0]
-    shape = ((count + LANES - 1) // LANES, (FOURIER + 2 * drive.harmonics.size) * LANES)
+    shape = ((count + LANES - 1) // LANES, (FOURIER + 2 * drive.orders.size) * LANES)
     size = shape[0] * shape[1]
     raw = np.zeros(size + 8)  # rows start on a 64-byte line: whole vectors, one line each
     first = ((-raw.ctypes.data) % 64) // 8
@@ -406,11 +431,11 @@ def measure(q_prev, q, h, law, drive, periods, readout):
     n = table.shape[0]
     lanes = _blocks(q_prev, q, s, drive)
     index, shift = _lockin_tables(drive)
+    references = drive.lockin_sin.shape[0]
     sample = 0
     for p in range(periods):
         if p == periods - 1:
             _state_into(lanes, count, readout.sums[3], readout.sums[4])
-        index[:] = 0
         for j in range(n):
             for block in range(lanes.shape[0]):
                 row = lanes[block]
@@ -419,7 +444,7 @@ def measure(q_prev, q, h, law, drive, periods, readout):
                 excess = row[X * LANES : (X + 1) * LANES]
                 for i in range(index.shape[0]):
                     first = (FOURIER + 2 * i) * LANES
-                    ck, sk = drive.cos_table[index[i]], drive.sin_table[index[i]]
+                    ck, sk = drive.lockin_cos[index[i]], drive.lockin_sin[index[i]]
                     _lockin_block(row[first : first + 2 * LANES], excess, width, ck, sk)
             if readout.stride > 0 and (p * n + j) % readout.stride == 0:
                 for t in range(count):
@@ -432,13 +457,11 @@ def measure(q_prev, q, h, law, drive, periods, readout):
                         row[i + X * LANES],
                     )
                 sample += 1
-            for i in range(index.shape[0]):
-                m = index[i] + shift[i]
-                index[i] = m - n if m >= n else m
+            _next_index(index, shift, references)
         status, bad = _block_status(lanes, count, s.limit, drive.stop)
         if status != OK:
             return status, bad
-    fourier = np.empty((2, drive.harmonics.shape[0]))
+    fourier = np.empty((2, drive.orders.shape[0]))
     for t in range(count):
         block, i = _lane(t)
         row = lanes[block]
@@ -521,9 +544,14 @@ def start_from(q, velocity, h, law):
 tables = period_tables  # the per-period tables of the excitation and the lock-in
 
 
-def inputs(sigma, sin_table, cos_table, harmonics):
-    """The :class:`Drive` of the levels ``sigma`` (float[T])."""
-    return Drive(sigma, sin_table, cos_table, harmonics, REQUEST)
+def inputs(sigma, sin_table, cos_table, harmonics, lockin=None):
+    """The :class:`Drive` of the levels ``sigma`` (float[T]); ``lockin = (lockin_sin,
+    lockin_cos, orders)``, default the excitation's tables and the orders as whole numbers
+    (L = 1)."""
+    harmonics = np.asarray(harmonics, dtype=np.float64)
+    if lockin is None:
+        lockin = (sin_table, cos_table, np.rint(harmonics).astype(np.int64))
+    return Drive(sigma, sin_table, cos_table, harmonics, REQUEST, *lockin)
 
 
 start = start_from  # the state's other member, q[-1], at (q, q')
@@ -535,6 +563,7 @@ __all__ = [
     "Readout",
     "advance",
     "advance_batch",
+    "denominator",
     "measure",
     "measure_one",
     "new_readout",

@@ -9,7 +9,9 @@ h, so a change of frequency restarts it: ``restart``), ``q'`` for RK4 (it does n
 
 ``advance(a, q, h, law, drive, periods) -> (a, q, status)``, ``advance_batch`` and
 ``measure``/``measure_one`` (in place on arrays, ``-> (status, trajectory)``) are the
-compiled loops; ``drive(sigma, harmonics, steps_per_period)`` builds their input;
+compiled loops; ``drive(sigma, harmonics, steps_per_period)`` builds their input (the
+lock-in's reference tables of N L entries for orders of common denominator L:
+:func:`common_denominator`);
 ``start(q, q', h, law)`` gives ``a``; ``restart(a, q, h_old, h_new, law)`` carries ``a`` to
 another step. Every method has its one-period map with the exact Jacobian,
 ``period_map(a, q, h, law, drive, derivative) -> (a, q, status)`` (``derivative``
@@ -49,7 +51,8 @@ KERNELS = (
 @dataclass(frozen=True)
 class Method:
     """One integration method's kernels (see the module docstring); ``inputs(sigma,
-    sin_table, cos_table, harmonics)`` builds the kernels' drive."""
+    sin_table, cos_table, harmonics, lockin)`` builds the kernels' drive (``lockin``: the
+    lock-in's reference tables and the orders ``k L`` as whole numbers)."""
 
     name: str
     order: str  # for the reader: the order of the readings in h
@@ -86,15 +89,51 @@ class Method:
         return np.zeros(self.state_shape) if self.state_shape else 0.0
 
     def drive(self, sigma, harmonics, steps_per_period: int):
-        """The kernels' input at the levels ``sigma`` (one per trajectory)."""
+        """The kernels' input at the levels ``sigma`` (one per trajectory), reading the
+        orders ``harmonics`` (whole, or multiples of 1/2, 1/3, 1/4 of the excitation
+        frequency)."""
         sin_table, cos_table = _tables(self.name, steps_per_period)
         levels = np.atleast_1d(np.asarray(sigma, dtype=float))
-        return self.inputs(levels, sin_table, cos_table, np.asarray(harmonics, dtype=np.int64))
+        orders = np.asarray(harmonics, dtype=np.float64).reshape(-1)
+        denominator = common_denominator(orders)
+        lockin_sin, lockin_cos = _lockin_tables(self.name, steps_per_period, denominator)
+        whole = np.rint(orders * denominator).astype(np.int64)
+        lockin = (lockin_sin, lockin_cos, whole)
+        return self.inputs(levels, sin_table, cos_table, orders, lockin)
 
 
 @lru_cache(maxsize=16)
 def _tables(name: str, steps_per_period: int) -> tuple[np.ndarray, np.ndarray]:
     return METHODS[name].tables(steps_per_period)  # every model's method shares them
+
+
+COMMON_DENOMINATORS = (1, 2, 3, 4, 6, 12)  # of orders that are multiples of 1/2, 1/3, 1/4
+ORDER_TOLERANCE = 1e-9  # k D within this (relative) of a whole number counts as whole
+
+
+def common_denominator(orders) -> int:
+    """L: the least of :data:`COMMON_DENOMINATORS` that makes every order ``k L`` whole
+    (the scene's orders are checked by ``hertzsweep.core.config``)."""
+    orders = np.asarray(orders, dtype=np.float64)
+    for denominator in COMMON_DENOMINATORS:
+        scaled = orders * denominator
+        if np.all(np.abs(scaled - np.rint(scaled)) <= ORDER_TOLERANCE * np.maximum(1.0, scaled)):
+            return denominator
+    raise ValueError(f"orders {orders.tolist()} are not multiples of 1/2, 1/3 or 1/4")
+
+
+@lru_cache(maxsize=16)
+def _lockin_tables(name: str, steps_per_period: int, denominator: int):
+    """The lock-in's reference tables of a method: its excitation tables of ``N L``
+    steps, entry ``j L`` set to entry j of the excitation's own (the very same arrays when
+    L = 1), so that a whole order reads the same references whatever L is."""
+    sin_table, cos_table = _tables(name, steps_per_period)
+    if denominator == 1:
+        return sin_table, cos_table
+    fine_sin, fine_cos = (np.array(t) for t in METHODS[name].tables(steps_per_period * denominator))
+    fine_sin[::denominator] = sin_table
+    fine_cos[::denominator] = cos_table
+    return fine_sin, fine_cos
 
 
 def difference_basis(steps_per_period: int) -> np.ndarray:
@@ -150,4 +189,4 @@ numpy: :func:`hertzsweep.drivers.shooting.newton`)."""
 MODELS = {"single": METHODS, "ball": BALL_METHODS}
 """Each ``model.kind``'s methods."""
 
-__all__ = ["BALL_METHODS", "KERNELS", "METHODS", "MODELS", "Method"]
+__all__ = ["BALL_METHODS", "KERNELS", "METHODS", "MODELS", "Method", "common_denominator"]

@@ -285,7 +285,7 @@ RK4_ROWS = (
 """The rows of :func:`advance_rk4`'s state (float[4, T])."""
 VELOCITY, DISPLACEMENT, CROSSING, STEPS = range(4)
 
-NoLockin = namedtuple("NoLockin", ["harmonics"])
+NoLockin = namedtuple("NoLockin", ["harmonics", "orders", "sin_table", "lockin_sin"])
 """What :func:`.rk._correct` reads of a drive: a random run has no lock-in harmonics."""
 
 
@@ -349,7 +349,7 @@ def _split(law, h, ends, forcing_samples, event, scratch):
     direction = -1.0 if inside else 1.0
     crossing = (0.0, v, a_e, direction, 0.0, ZERO, ZERO)  # no lock-in: tau_e, w unused
     contact = (second if direction > 0.0 else first, reach, ZERO, ZERO, False)
-    cq, cv, _, _ = _correct(law, lockin, h, crossing, contact, sums, fourier)
+    cq, cv, _, _ = _correct(law, lockin, h, crossing, contact, sums, fourier, 0)
     middle = _interpolated(sigma, samples, 0.5 * (1.0 + fraction))
     loads = (load_e, middle, 1.0 + sigma * samples[2])
     q, v, _, _ = _rk4(law, q + cq, v + cv, second, loads, -side)
@@ -386,7 +386,8 @@ def advance_rk4(law, h, state, drive, g, record):
     count = level.shape[0]
     excess = record.excess
     contact = record.contact
-    scratch = (np.zeros(1), np.zeros((0, 2)), NoLockin(np.zeros(0, dtype=np.int64)))
+    nothing = NoLockin(np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(1), np.zeros(1))
+    scratch = (np.zeros(1), np.zeros((0, 2)), nothing)
     limit = 8.0 / (h * h)  # (h omega)^2 < 8 with omega^2 = sqrt(d): core.model.STABILITY
     peak = np.zeros(count)
     start = state[STEPS, 0] if count else 0.0

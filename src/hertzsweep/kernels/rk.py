@@ -25,9 +25,11 @@ steps a period (``solver.method = "rk4"``), with three additions at the contact 
 3. **The lock-in as integrals.** The Fourier integrals of ``x = N/F_s - 1``
    (``int x cos(k w tau)``, ``int x sin(k w tau)``) and its mean are extra states of the same
    RK4 steps: each (sub)step adds Simpson's rule over its stages' values of x, the
-   substeps' phases from ``math``, the whole steps' from tables of ``sin``, ``cos(pi m /
-   N)`` (step ends and midpoints). They are reported divided by h, so that the readings
-   are formed exactly as the central difference's step sums (``2 / (P N)`` times the sum).
+   substeps' phases from ``math`` (with the period's offset ``2 pi k p`` for an order k
+   that is not whole), the whole steps' from tables of ``sin``, ``cos(pi m / (N L))``
+   (step ends and midpoints; L the orders' common denominator, 1 for whole orders). They
+   are reported divided by h, so that the readings are formed exactly as the central
+   difference's step sums (``2 / (P N)`` times the sum).
    The time out of contact and the flights are measured between located crossings; the
    extremes of N/F_s are read at the step ends and the crossings (second order in h at a
    smooth extremum, as the central difference's).
@@ -68,6 +70,7 @@ from .integrate import (
     _finish,
     _sample,
     _status,
+    denominator,
 )
 from .integrate import (
     new_readout as new_readout,  # the readout every method of the single model fills
@@ -76,11 +79,25 @@ from .laws import singular_exponent, slopes, terms
 from .scheme import NON_FINITE, OK, to_compression
 from .stop import REQUEST
 
-Drive = namedtuple("Drive", ["sigma", "sin_table", "cos_table", "harmonics", "stop", "events"])
+Drive = namedtuple(
+    "Drive",
+    [
+        "sigma",
+        "sin_table",
+        "cos_table",
+        "harmonics",
+        "stop",
+        "events",
+        "lockin_sin",
+        "lockin_cos",
+        "orders",
+    ],
+)
 """The input and the lock-in of the RK4 kernels: as :class:`.integrate.Drive`, with tables
 of ``sin``/``cos(pi m / N)``, m = 0 .. 2N - 1 (the step ends and midpoints of a period of
-N steps), and ``events`` (bool: locate and split the crossings, integrate their singular
-terms; False only to show what that buys)."""
+N steps), the lock-in's of ``pi i / (N L)``, i = 0 .. 2 N L - 1, and ``events`` (bool:
+locate and split the crossings, integrate their singular terms; False only to show what
+that buys)."""
 
 WINDOW = 1.0  # tau on the contact side of a crossing over which its singular terms are
 # integrated exactly: the steps beyond contribute O(h^4 WINDOW^(-3/2)) together, below the
@@ -404,7 +421,7 @@ def _set(values, index, value):
 
 
 @njit(cache=CACHE)
-def _correct(law, drive, h, crossing, span, sums, fourier):
+def _correct(law, drive, h, crossing, span, sums, fourier, period):
     """The exact integrals of the singular terms of a crossing minus RK4's quadrature of
     them (see the module docstring), over the steps from the crossing to the window's end
     (or ``reach``, tau from the crossing to the previous crossing): returned as
@@ -415,7 +432,8 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
     ``crossing = (tau_e, v_e, a_e, direction, w, dv_e, da_e)``; ``span = (first, reach,
     dfirst, dreach, derivatives)``: the length of the split step's part on the contact
     side, ``reach``, their tangents, and whether to carry the tangents at all (the
-    returned ones are zero where not)."""
+    returned ones are zero where not); ``period``: the measured period the crossing lies
+    in (the phase offset of an order that is not whole, :func:`_reference`)."""
     tau_e, v_e, a_e, direction, w, _, _ = crossing
     first, reach, dfirst, dreach, derivatives = span
     impact = direction > 0.0
@@ -461,8 +479,8 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
                 next_powers = (lo * powers[0], mid * g_mid, hi * g_hi)  # s^(p + 1)
                 slope = _defects((inverse[1], inverse[2]), (lo, hi), next_powers, impact)[0]
                 for i in range(k):
-                    kw = drive.harmonics[i] * w
-                    c, s = math.cos(kw * tau_e), math.sin(kw * tau_e)
+                    kw, offset = _reference(drive, i, w, period)
+                    c, s = math.cos(kw * tau_e + offset), math.sin(kw * tau_e + offset)
                     # x cos(k w tau) with cos(k w (tau_e + direction s)) to first order in s
                     fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) * per_h
                     fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) * per_h
@@ -477,10 +495,21 @@ def _correct(law, drive, h, crossing, span, sums, fourier):
 
 
 @njit(cache=CACHE, inline="always")
+def _reference(drive, i, w, period):
+    """``(k w, offset)`` of harmonic i: its phase ``k w tau + offset`` at tau in period p of
+    a measured record, ``offset = 2 pi (m p mod L) / L`` (``m = k L``; 0 for a whole
+    order, so that its phase is ``k w tau`` to the last bit)."""
+    common = denominator(drive)
+    turns = (drive.orders[i] * period) % common
+    return drive.harmonics[i] * w, 2.0 * math.pi * turns / common
+
+
+@njit(cache=CACHE, inline="always")
 def _simpson(fourier, index, shift, drive, x, weight):
     """Add Simpson's rule over a whole step's stages to the Fourier integrals (``weight`` =
-    1/6: integral / h), the phases at table positions ``index``, ``+shift``, ``+2 shift``."""
-    n2 = drive.sin_table.shape[0]
+    1/6: integral / h), the phases at positions ``index``, ``+shift``, ``+2 shift`` of the
+    lock-in's tables."""
+    n2 = drive.lockin_sin.shape[0]
     for i in range(index.shape[0]):
         i0 = index[i]
         im = i0 + shift[i]
@@ -489,20 +518,28 @@ def _simpson(fourier, index, shift, drive, x, weight):
         i1 = i1 - n2 if i1 >= n2 else i1
         xm = x[1] + x[2]
         fourier[i, 0] += weight * (
-            x[0] * drive.cos_table[i0] + 2.0 * xm * drive.cos_table[im] + x[3] * drive.cos_table[i1]
+            x[0] * drive.lockin_cos[i0]
+            + 2.0 * xm * drive.lockin_cos[im]
+            + x[3] * drive.lockin_cos[i1]
         )
         fourier[i, 1] += weight * (
-            x[0] * drive.sin_table[i0] + 2.0 * xm * drive.sin_table[im] + x[3] * drive.sin_table[i1]
+            x[0] * drive.lockin_sin[i0]
+            + 2.0 * xm * drive.lockin_sin[im]
+            + x[3] * drive.lockin_sin[i1]
         )
         index[i] = i1
 
 
 @njit(cache=CACHE, inline="always")
-def _simpson_at(fourier, drive, x, tau, step, w, weight):
-    """Simpson's rule over a substep from ``tau`` (phases from ``math``)."""
+def _simpson_at(fourier, drive, x, span, weight):
+    """Simpson's rule over a substep ``span = (tau, step, w, period)`` from ``tau`` in the
+    measured period ``period`` (phases from ``math``, :func:`_reference`)."""
+    tau, step, w, period = span
     for i in range(fourier.shape[0]):
-        kw = drive.harmonics[i] * w
-        t0, tm, t1 = kw * tau, kw * (tau + 0.5 * step), kw * (tau + step)
+        kw, offset = _reference(drive, i, w, period)
+        t0 = kw * tau + offset
+        tm = kw * (tau + 0.5 * step) + offset
+        t1 = kw * (tau + step) + offset
         c0, cm, c1 = math.cos(t0), math.cos(tm), math.cos(t1)
         s0, sm, s1 = math.sin(t0), math.sin(tm), math.sin(t1)
         xm = 2.0 * (x[1] + x[2])
@@ -526,14 +563,15 @@ def _substep(law, y, tangents, h, loads, side):
 @njit(cache=CACHE)
 def _split(law, drive, step, y, sums, fourier):
     """The step of ``step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach,
-    grid)`` (``grid``: the loads at the step's ends, from the tables) from ``y = (q, q',
+    grid, period)`` (``grid``: the loads at the step's ends, from the tables; ``period``:
+    the measured period the step lies in, for the lock-in's phases) from ``y = (q, q',
     dq, dq', derivatives)`` taken as two RK4 steps, to the crossing at
     ``fraction`` of it and from it, the singular terms' correction (:func:`_correct`) added
     at the crossing; each part's quadrature added to ``sums`` and ``fourier`` (when it has
     rows). Returns ``(q, q', x at the crossing, dq, dq')``: the tangents as
     :func:`period_map`'s (those of ``fraction`` and ``reach`` given) where
     ``derivatives``, else the ones given (an advance needs none)."""
-    h, w, sigma, j, fraction, inside, reach, dfraction, dreach, grid = step
+    h, w, sigma, j, fraction, inside, reach, dfraction, dreach, grid, period = step
     derivatives = y[4]
     side = 1 if inside else -1
     first = fraction * h
@@ -552,7 +590,7 @@ def _split(law, drive, step, y, sums, fourier):
         _scale(rate * math.cos(w * tau_e), dfraction) if derivatives else ZERO,
     )
     q, v, x, dq, dv = _substep(law, y, (dfirst, dloads), first, loads, side)
-    _quadrature(sums, fourier, drive, x, (t0, first, w, h))
+    _quadrature(sums, fourier, drive, x, (t0, first, w, h, period))
     # the contact side's acceleration at the crossing (there the force is c(0+) q')
     a_e, x_e, _ = _acceleration(law, -1.5, v, loads[2], 1)
     da_e = _stage_tangent(law, -1.5, v, ZERO, dv, dloads[2], 1) if derivatives else ZERO
@@ -563,24 +601,24 @@ def _split(law, drive, step, y, sums, fourier):
         if direction > 0.0
         else (first, reach, dfirst, dreach, derivatives)
     )
-    cq, cv, dcq, dcv = _correct(law, drive, h, crossing, contact, sums, fourier)
+    cq, cv, dcq, dcv = _correct(law, drive, h, crossing, contact, sums, fourier, period)
     middle = tau_e + 0.5 * second
     loads = (loads[2], _load(sigma, w, middle), grid[1])
     dmiddle = _scale(0.5 * rate * math.cos(w * middle), dfraction) if derivatives else ZERO
     y = (q + cq, v + cv, _axpy(1.0, dcq, dq), _axpy(1.0, dcv, dv), derivatives)
     q, v, x, dq, dv = _substep(law, y, (dsecond, (dloads[2], dmiddle, ZERO)), second, loads, -side)
-    _quadrature(sums, fourier, drive, x, (tau_e, second, w, h))
+    _quadrature(sums, fourier, drive, x, (tau_e, second, w, h, period))
     return q, v, x_e, dq, dv
 
 
 @njit(cache=CACHE, inline="always")
 def _quadrature(sums, fourier, drive, x, span):
-    """Simpson's rule over the stages x of a part ``span = (tau, step, w, h)`` of a step,
-    added (divided by h) to the integral of x and to its Fourier integrals."""
-    tau, step, w, h = span
+    """Simpson's rule over the stages x of a part ``span = (tau, step, w, h, period)`` of
+    a step, added (divided by h) to the integral of x and to its Fourier integrals."""
+    tau, step, w, h, period = span
     weight = step / (6.0 * h)
     sums[0] += weight * (x[0] + 2.0 * (x[1] + x[2]) + x[3])
-    _simpson_at(fourier, drive, x, tau, step, w, weight)
+    _simpson_at(fourier, drive, x, (tau, step, w, period), weight)
 
 
 @njit(cache=CACHE, inline="always")
@@ -623,18 +661,18 @@ def _run(law, drive, t, h, state, periods, out, measuring):
     (:data:`.scheme.STATUS`)."""
     literally(measuring)  # compiled once reading and once not: no dead branch in the loop
     n = drive.sin_table.shape[0] // 2
-    n2 = 2 * n
     w = 2.0 * math.pi / (n * h)
     sigma = drive.sigma[t]
     v, q = state[0, t], state[1, t]
     limit = 8.0 / (h * h)  # (h omega)^2 < 8 with omega^2 = sqrt(d): core.model.STABILITY
     peak = 0.0
-    k = drive.harmonics.shape[0] if measuring else 0
+    k = drive.orders.shape[0] if measuring else 0
     fourier = np.zeros((k, 2))
-    index = np.zeros(k, dtype=np.int64)
+    index = np.zeros(k, dtype=np.int64)  # the first measured step at reference phase 0
     shift = np.empty(k, dtype=np.int64)
+    references = drive.lockin_sin.shape[0]  # 2 N L: the index runs on over the periods
     for i in range(k):
-        shift[i] = drive.harmonics[i] % n2
+        shift[i] = drive.orders[i] % references
     sums = np.zeros(1)  # the integral of x, divided by h
     acc = TALLY_START  # only its extremes are used: the flights are timed here
     start = 0.0 if to_compression(q) <= 0.0 else -1.0
@@ -645,7 +683,6 @@ def _run(law, drive, t, h, state, periods, out, measuring):
     for p in range(periods):
         if measuring and p == periods - 1:
             out.sums[3, t], out.sums[4, t] = v, q
-        index[:] = 0
         for j in range(n):
             loads = (
                 1.0 + sigma * drive.sin_table[2 * j],
@@ -673,12 +710,14 @@ def _run(law, drive, t, h, state, periods, out, measuring):
             else:
                 fraction = _crossing(q, v, q1, v1, h)
                 reach = p * n * h + (j + fraction) * h - last_crossing if inside else np.inf
-                step = (h, w, sigma, j, fraction, inside, reach, ZERO, ZERO, (loads[0], loads[2]))
+                grid = (loads[0], loads[2])
+                step = (h, w, sigma, j, fraction, inside, reach, ZERO, ZERO, grid, p)
                 given = (q, v, ZERO, ZERO, False)  # no derivatives: an advance
                 q, v, x_e, _, _ = _split(law, drive, step, given, sums, fourier)
                 acc = _extremes(acc, (np.nan, np.nan), x_e)
+                ahead = (2 * (p * n + j + 1)) % references  # half steps to the next step
                 for i in range(k):  # the table positions of the next step
-                    index[i] = (drive.harmonics[i] * 2 * (j + 1)) % n2
+                    index[i] = (shift[i] * ahead) % references
             last_crossing = p * n * h + (j + fraction) * h
             _flight(flights, last_crossing, inside)
             history = (np.nan, np.nan)  # no parabola across the kink
@@ -794,7 +833,8 @@ def period_map(v, q, h, law, drive, derivative):
         reach, dreach = (
             (now - last_crossing, _axpy(-1.0, dlast, dnow)) if inside else (np.inf, ZERO)
         )
-        step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach, (loads[0], loads[2]))
+        grid = (loads[0], loads[2])
+        step = (h, w, sigma, j, fraction, inside, reach, dfraction, dreach, grid, 0)
         q, v, _, dq, dv = _split(law, drive, step, (q, v, dq, dv, True), none, nothing)
         last_crossing, dlast = now, dnow
     for i in range(3):
@@ -822,9 +862,13 @@ def _no_readout(trajectories):
 measure_one = measure  # one trajectory is a batch of one (the same numbers)
 
 
-def inputs(sigma, sin_table, cos_table, harmonics):
-    """The :class:`Drive` of the levels ``sigma`` with the events handled."""
-    return Drive(sigma, sin_table, cos_table, harmonics, REQUEST, True)
+def inputs(sigma, sin_table, cos_table, harmonics, lockin=None):
+    """The :class:`Drive` of the levels ``sigma`` with the events handled; ``lockin =
+    (lockin_sin, lockin_cos, orders)`` as :func:`.integrate.inputs`'s."""
+    harmonics = np.asarray(harmonics, dtype=np.float64)
+    if lockin is None:
+        lockin = (sin_table, cos_table, np.rint(harmonics).astype(np.int64))
+    return Drive(sigma, sin_table, cos_table, harmonics, REQUEST, True, *lockin)
 
 
 def start(q, velocity, h, law):

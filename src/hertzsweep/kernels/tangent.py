@@ -41,7 +41,7 @@ from numba.core import types
 from numba.extending import overload
 
 from . import CACHE, integrate, rk
-from .integrate import Readout, _finite, step
+from .integrate import Readout, _finite, denominator, step
 from .laws import slopes
 from .scheme import (
     NON_FINITE,
@@ -226,7 +226,9 @@ def approach(a, q, h, law, drive, block, max_periods, tolerance):
 
 
 CONVERGED_PERIODS = 1  # periods read on a converged stable orbit: all its periods are one
-# period, to the Newton residual (1e-10 of Q), so one period reads what any number would
+# period, to the Newton residual (1e-10 of Q), so one period reads what any number would;
+# times the lock-in's common denominator L (:func:`.integrate.denominator`) where it reads
+# orders that are not whole, which need whole response periods of L excitation periods
 
 NewtonSettings = namedtuple(
     "NewtonSettings",
@@ -379,8 +381,8 @@ READ, UNSETTLED, LOST = 0, 1, 2  # a dwell of the walk: its orbit found and read
 def shooting_walk(state, steps, law, drive, settings, readout, start, transient):
     """Stepped-sine dwells by shooting, from dwell ``start`` on: retune the state
     (float64[3]: the method's first member, q, h) to ``steps[i]``, solve the orbit
-    (:func:`_dwell_orbit`), read :data:`CONVERGED_PERIODS` of it into column i of
-    ``readout`` (:class:`~hertzsweep.kernels.integrate.Readout` over the dwells).
+    (:func:`_dwell_orbit`), read :data:`CONVERGED_PERIODS` of it (times L) into column i
+    of ``readout`` (:class:`~hertzsweep.kernels.integrate.Readout` over the dwells).
 
     Returns ``(stop, periods, unsettled)``: the first dwell whose orbit was not found
     (``len(steps)`` if none) and the periods integrated in all; ``unsettled``: at that
@@ -446,17 +448,18 @@ def _dwell_orbit(state, law, drive, solvers, transient, work):
     """
     settings, unpredicted = solvers
     residuals, monodromy, pair, one = work
+    read = CONVERGED_PERIODS * denominator(drive)  # whole periods of every order read
     x0, x1, periods, outcome = newton(
         state[0], state[1], state[2], law, drive, settings, residuals, monodromy
     )
     pair[0], pair[1] = x0, x1
     q_prev, q = pair[0:1], pair[1:2]
     if outcome == PREDICTED and largest_multiplier(monodromy) < 1.0 - PREDICTED_MARGIN:
-        status, _ = measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
-        periods += CONVERGED_PERIODS
+        status, _ = measure_one(q_prev, q, state[2:3], law, drive, read, one)
+        periods += read
         if status != OK:  # a stop request (or a blow-up Newton would have met)
             return state[0], state[1], periods, LOST
-        if _repeats(x0, x1, q_prev[0], q[0], settings):  # converged, as evaluated
+        if _repeats(x0, x1, q_prev[0], q[0], settings):  # converged (after L periods)
             return q_prev[0], q[0], periods, READ
     if outcome == PREDICTED:  # not the orbit yet, or a fold near
         x0, x1, evaluations, outcome = newton(
@@ -473,10 +476,10 @@ def _dwell_orbit(state, law, drive, solvers, transient, work):
         if not stable:
             return x0, x1, periods, UNSETTLED
     q_prev[0], q[0] = x0, x1
-    status, _ = measure_one(q_prev, q, state[2:3], law, drive, CONVERGED_PERIODS, one)
+    status, _ = measure_one(q_prev, q, state[2:3], law, drive, read, one)
     if status != OK:
-        return state[0], state[1], periods + CONVERGED_PERIODS, LOST
-    return q_prev[0], q[0], periods + CONVERGED_PERIODS, READ
+        return state[0], state[1], periods + read, LOST
+    return q_prev[0], q[0], periods + read, READ
 
 
 @njit(cache=CACHE)

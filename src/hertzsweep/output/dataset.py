@@ -141,7 +141,8 @@ ATTRIBUTE_ORDER = (  # the order of the global attributes (ordered_attributes); 
     "command_json",
     "scene_file",
 )  # then every other attribute (a kind's own), in the order it was added
-INDEX = np.int32  # integer type of indices, orders and counts (a harmonic, a point, ...)
+INDEX = np.int32  # integer type of indices and counts (a point, a multiplier, ...)
+ORDER = np.float64  # type of the ``harmonic`` coordinate: orders k, whole or not (1/2, 4/3)
 STEP_COUNT = np.int64  # integer type of integration-step counts: a study passes 2**31
 GIT_SECONDS = 5.0  # at most this long for each git query of the provenance
 
@@ -388,7 +389,7 @@ def _coords(result: SweepResult, constants: RigConstants) -> dict[str, Any]:
             result.frequency_ratio * constants.natural_frequency,
             attrs("frequency"),
         ),
-        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
+        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=ORDER), attrs("harmonic")),
     }
 
 
@@ -483,7 +484,7 @@ def trace_dataset(result: TraceResult, scene: Scene, history: str | None = None)
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "tau": ("sample", tau, attrs("tau")),
         "time": ("sample", tau if result.record is None else tau / omega, attrs("time")),
-        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
+        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=ORDER), attrs("harmonic")),
         "harmonic_order": ("harmonic_order", order, attrs("harmonic_order")),
         "spectrum_frequency": ("harmonic_order", order * w * f0, attrs("spectrum_frequency")),
     }
@@ -611,7 +612,7 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
     coords = {
         "sigma": ("sigma", result.sigma, attrs("sigma")),
         "point": ("point", np.arange(n_points, dtype=INDEX), attrs("point")),
-        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=INDEX), attrs("harmonic")),
+        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=ORDER), attrs("harmonic")),
         "multiplier": (
             "multiplier",
             np.arange(multipliers.shape[-1], dtype=INDEX),
@@ -1143,10 +1144,22 @@ def _attribute(name: str, value: Any) -> Any:
 
 
 def open_dataset(path: str | os.PathLike) -> xr.Dataset:
-    """Open a hertzsweep netCDF file fully into memory (the file is closed on return)."""
+    """Open a hertzsweep netCDF file fully into memory (the file is closed on return).
+
+    A ``harmonic`` coordinate of integers (a file of a version before orders that are not
+    whole, e.g. ``tests/data/golden``) reads as float64, the type of every file since
+    (:data:`ORDER`): a dataset read compares, aligns and selects with any other."""
     xr = load_xarray()
     with xr.open_dataset(path, engine="netcdf4") as ds:
-        return ds.load()
+        return orders_as_float(ds.load())
+
+
+def orders_as_float(ds: xr.Dataset) -> xr.Dataset:
+    """The dataset with an integer ``harmonic`` coordinate cast to :data:`ORDER` (its
+    attributes kept); as it is otherwise."""
+    if "harmonic" in ds.coords and ds["harmonic"].dtype.kind in "iu":
+        ds = ds.assign_coords(harmonic=ds["harmonic"].astype(ORDER))
+    return ds
 
 
 def read_attributes(path: str | os.PathLike) -> dict[str, Any]:

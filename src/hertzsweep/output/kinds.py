@@ -316,7 +316,7 @@ def check_view(kind: Kind, view: str | None) -> str:
 def figure(
     ds: xr.Dataset,
     view: str | None = None,
-    harmonics: Sequence[int] | None = None,
+    harmonics: Sequence[float | str] | None = None,
     sigma: Sequence[float] | None = None,
     overlay: xr.Dataset | None = None,
 ) -> Figure:
@@ -328,8 +328,9 @@ def figure(
         A dataset written by hertzsweep (any kind of :data:`KINDS`).
     view : str, optional
         One of the kind's views; default the first.
-    harmonics : sequence of int, optional
-        The harmonic orders to draw (sweep and branch); default all.
+    harmonics : sequence of orders, optional
+        The harmonic orders to draw (sweep and branch), numbers or texts (``"1/2"``);
+        default all.
     sigma : sequence of float, optional
         The input levels to draw (datasets with a ``sigma`` dimension); default all.
     overlay : xarray.Dataset, optional

@@ -35,6 +35,7 @@ import numpy as np
 
 from .. import __version__
 from ..core.config import Scene, read_text
+from ..core.lockin import order_label
 from ..drivers.fit import (
     FitResult,
     JumpMeasurements,
@@ -146,7 +147,7 @@ def read_measurements(path: str | os.PathLike) -> Measurements:
         direction=np.array(values["direction"]),
         sigma=np.array(values["sigma"]),
         frequency=np.array(values[frequency_column]),
-        harmonic=np.array(values.get("harmonic", [1] * len(table.rows)), dtype=np.int64),
+        harmonic=np.array(values.get("harmonic", [1] * len(table.rows)), dtype=np.float64),
         amplitude=np.array(values["amplitude"]),
         phase=np.array(values["phase"]),
         in_hertz=in_hertz,
@@ -346,7 +347,7 @@ def measured_dataset(
     else:
         axis = _frequency_name(data)
         frequency = np.unique(data.frequency)
-        harmonic = np.unique(data.harmonic).astype(np.int32)
+        harmonic = np.unique(data.harmonic).astype(np.float64)  # orders, as a sweep's
         amplitude = np.full((*shape, frequency.size, harmonic.size), np.nan)
         phase = np.full_like(amplitude, np.nan)
         i = np.searchsorted(frequency, data.frequency)
@@ -416,7 +417,7 @@ def measurements_from_dataset(ds: xr.Dataset, source: str) -> Measurements:
         direction=d,
         sigma=s,
         frequency=np.array(index.get_level_values(axis), dtype=float),
-        harmonic=np.array(index.get_level_values("harmonic"), dtype=np.int64),
+        harmonic=np.array(index.get_level_values("harmonic"), dtype=np.float64),
         amplitude=amplitude.to_numpy()[measured],
         phase=phase,
         in_hertz=axis == "frequency",
@@ -615,7 +616,7 @@ def measured_summary(data: Measurements, ds: xr.Dataset) -> str:
             f"{levels}; {np.min(data.frequency):g} to {np.max(data.frequency):g} {unit}"
         )
     unit = "Hz" if data.in_hertz else "(frequency ratio)"
-    harmonics = ", ".join(str(int(k)) for k in ds.harmonic.values)
+    harmonics = ", ".join(order_label(k) for k in ds.harmonic.values)
     return (
         f"measured sweeps: {data.amplitude.size} readings ({directions}; harmonic "
         f"{harmonics}) at sigma {levels}; {np.min(data.frequency):g} to "

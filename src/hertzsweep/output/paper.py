@@ -33,6 +33,7 @@ from ..core.config import (
     read_toml,
     scene_from_dict,
 )
+from ..core.lockin import first_harmonic_index
 from ..core.rig import RigConstants, derive
 from ..drivers.study import LocalPool, expand, load_study
 from ..drivers.sweep import run_sweep
@@ -277,7 +278,7 @@ def at_sigma(ds: xr.Dataset, sigma: float) -> xr.Dataset:
 def peak_point(ds: xr.Dataset, sigma: float, direction: str = "down") -> xr.Dataset:
     """A sweep at the maximum of H1 along one direction (the resonance peak)."""
     one = at_sigma(ds, sigma).sel(direction=direction)
-    h1 = one.amplitude.isel(harmonic=0).values
+    h1 = one.amplitude.isel(harmonic=first_harmonic_index(one.harmonic.values)).values
     return one.isel(frequency_ratio=int(np.nanargmax(h1)))
 
 
@@ -306,7 +307,8 @@ def measurements(datasets: Mapping[str, xr.Dataset], constants: RigConstants) ->
     if "fig03" in datasets:
         ds = datasets["fig03"]
         one = ds.isel(sigma=0, direction=0)
-        w = refined_peak(one.frequency_ratio.values, one.amplitude.isel(harmonic=0).values)
+        h1 = one.amplitude.isel(harmonic=first_harmonic_index(one.harmonic.values)).values
+        w = refined_peak(one.frequency_ratio.values, h1)
         ours["f0_measured"] = Ours(
             w * ds.attrs["natural_frequency"], f"H1 peak at w = {w:.4f}, parabola through 3 points"
         )
@@ -443,7 +445,8 @@ def peak_frequency(scene: Scene) -> float:
     """The frequency ratio of the H1 maximum of the scene's down sweep (one sigma)."""
     down = replace(scene, sweep=replace(scene.sweep, directions=("down",)))
     result = run_sweep(down)
-    return float(result.frequency_ratio[int(np.nanargmax(result.amplitude[0, 0, :, 0]))])
+    h1 = result.amplitude[0, 0, :, first_harmonic_index(result.harmonics)]
+    return float(result.frequency_ratio[int(np.nanargmax(h1))])
 
 
 def run_datasets(run: Run, history: str, out_dir: Path) -> list[xr.Dataset]:

@@ -48,6 +48,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogLocator, MultipleLocator, NullFormatter
 
 from .. import __version__
+from ..core.lockin import first_harmonic_index, order_label, parse_order
 from ..errors import HertzsweepError
 from .dataset import atomic_path
 from .frame import load_xarray
@@ -249,22 +250,35 @@ def select_sigma(ds: xr.Dataset, sigma: Sequence[float]) -> xr.Dataset:
     return ds.isel(sigma=index)
 
 
-def select_harmonics(ds: xr.Dataset, harmonics: Sequence[int] | None) -> xr.Dataset:
-    """The dataset restricted to the given harmonic orders (all when None)."""
+def select_harmonics(ds: xr.Dataset, harmonics: Sequence[float | str] | None) -> xr.Dataset:
+    """The dataset restricted to the given harmonic orders (all when None): numbers, or
+    texts such as ``"2"``, ``"1/2"`` (:func:`~hertzsweep.core.lockin.parse_order`)."""
     if harmonics is None:
         return ds
-    held = [int(k) for k in ds.harmonic.values]
-    missing = [k for k in harmonics if int(k) not in held]
+    held = [float(k) for k in ds.harmonic.values]
+    wanted = []
+    for k in harmonics:
+        try:
+            wanted.append(parse_order(k))
+        except ValueError as exc:
+            raise HertzsweepError(f"--harmonic: {exc}") from None
+    missing = [k for k in wanted if not np.isclose(held, k, rtol=1e-9, atol=0.0).any()]
     if missing:
         raise HertzsweepError(
-            f"--harmonic: {_list(missing)} not in the dataset (it holds {_list(held)})"
+            f"--harmonic: {_orders(missing)} not in the dataset (it holds {_orders(held)})"
         )
-    return ds.sel(harmonic=[int(k) for k in harmonics])
+    index = [int(np.flatnonzero(np.isclose(held, k, rtol=1e-9, atol=0.0))[0]) for k in wanted]
+    return ds.isel(harmonic=index)
 
 
 # --------------------------------------------------------------------------- helpers
 def _list(values) -> str:
     return ", ".join(f"{v:g}" for v in np.asarray(values, dtype=float))
+
+
+def _orders(values) -> str:
+    """Orders as text: ``1/2, 1, 3/2``."""
+    return ", ".join(order_label(k) for k in np.asarray(values, dtype=float))
 
 
 def panel_size(with_phase: bool, rows: int) -> tuple[float, float]:
@@ -303,13 +317,13 @@ def _colour(i: int) -> str:
     return COLOURS[i % len(COLOURS)]
 
 
-def _amplitude_label(k: int) -> str:
-    return f"$H_{{{k}}}$ amplitude of $N/F_s$ [1]"
+def _amplitude_label(k: float) -> str:
+    return f"$H_{{{order_label(k)}}}$ amplitude of $N/F_s$ [1]"
 
 
-def _phase_label(k: int) -> str:
+def _phase_label(k: float) -> str:
     unwrapped = ", unwrapped" if _PHASE.get() == UNWRAPPED else ""
-    return f"$H_{{{k}}}$ phase lag{unwrapped} [degree]"
+    return f"$H_{{{order_label(k)}}}$ phase lag{unwrapped} [degree]"
 
 
 def _phase_axis(ax) -> None:
@@ -475,7 +489,7 @@ def _sweep_markers(
 
 # --------------------------------------------------------------------------- sweep
 def sweep_figure(
-    ds: xr.Dataset, view: str = "harmonics", harmonics: Sequence[int] | None = None
+    ds: xr.Dataset, view: str = "harmonics", harmonics: Sequence[float | str] | None = None
 ) -> Figure:
     """Simulated stepped-sine sweeps as the rig shows them (Figures 3-6, 9, 10).
 
@@ -487,7 +501,7 @@ def sweep_figure(
     if view == "forces":
         return _sweep_forces(ds)
     ds = select_harmonics(ds, harmonics)
-    orders = [int(k) for k in ds.harmonic.values]
+    orders = [float(k) for k in ds.harmonic.values]
     with_phase = view == "harmonics"
     fig = _new_figure(*panel_size(with_phase, len(orders)))
     axes = fig.subplots(len(orders), 2 if with_phase else 1, squeeze=False, sharex=True)
@@ -555,7 +569,7 @@ def break_wraps(x: np.ndarray, y: np.ndarray, phase: bool) -> tuple[np.ndarray, 
 def branch_figure(
     ds: xr.Dataset,
     view: str = "harmonics",
-    harmonics: Sequence[int] | None = None,
+    harmonics: Sequence[float | str] | None = None,
     overlay: xr.Dataset | None = None,
 ) -> Figure:
     """Periodic-orbit branches (Figures 13, 14): stable solid, unstable dotted, the folds
@@ -565,7 +579,7 @@ def branch_figure(
     in arclength order, branches and sweep alike starting in the panel's
     :func:`phase_window` (:func:`phase_convention`)."""
     ds = select_harmonics(ds, harmonics)
-    orders = [int(k) for k in ds.harmonic.values]
+    orders = [float(k) for k in ds.harmonic.values]
     with_phase = view == "harmonics"
     fig = _new_figure(*panel_size(with_phase, len(orders)))
     axes = fig.subplots(len(orders), 2 if with_phase else 1, squeeze=False, sharex=True)
@@ -648,7 +662,7 @@ def _mark_bifurcations(ax, one: xr.Dataset, y: np.ndarray, colour: str) -> set[s
         return set()
     seen = set()
     w = one.frequency_ratio.values
-    h1 = one.amplitude.isel(harmonic=0).values
+    h1 = one.amplitude.isel(harmonic=first_harmonic_index(one.harmonic.values)).values
     for wf, kind, af in zip(
         one.bifurcation_frequency_ratio.values,
         one.bifurcation_kind.values,

@@ -144,7 +144,7 @@ def _source(ds: xr.Dataset) -> str:
 
 # --------------------------------------------------------------------------- measured
 def measured_figure(
-    ds: xr.Dataset, view: str = "auto", harmonics: Sequence[int] | None = None
+    ds: xr.Dataset, view: str = "auto", harmonics: Sequence[float | str] | None = None
 ) -> Figure:
     """Measured sweeps (H_k amplitude and phase against frequency) or jump frequencies
     (against sigma), as they were read."""
@@ -157,7 +157,7 @@ def measured_figure(
         fig.suptitle(f"Measured jump frequencies  ({_source(ds)})", fontsize="medium")
         return fig
     ds = select_harmonics(ds, harmonics)
-    orders = [int(k) for k in ds.harmonic.values]
+    orders = [float(k) for k in ds.harmonic.values]
     with_phase = view == "harmonics"
     size = (11.0, 1.0 + 3.2 * len(orders)) if with_phase else (8.0, 1.4 + 3.6 * len(orders))
     fig = _figure(*size)
@@ -319,7 +319,7 @@ def overlay_measured(
     ds: xr.Dataset,
     measured: xr.Dataset,
     view: str,
-    harmonics: Sequence[int] | None = None,
+    harmonics: Sequence[float | str] | None = None,
 ) -> None:
     """Draw a ``measured`` dataset over the figure of ``ds`` (a sweep, branch or study),
     in its frequency ratio (measured Hz over the dataset's ``natural_frequency``).
@@ -342,7 +342,7 @@ def overlay_measured(
             "amplitude) or a study figure"
         )
     drawn = select_harmonics(ds, harmonics)
-    orders = [int(k) for k in drawn.harmonic.values]
+    orders = [float(k) for k in drawn.harmonic.values]
     columns = 2 if view == "harmonics" else 1
     axes = np.array(fig.axes[: len(orders) * columns]).reshape(len(orders), columns)
     colours = _matching_colours(ds.sigma.values, measured.sigma.values)

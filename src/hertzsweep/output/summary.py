@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..core.lockin import first_harmonic_index, order_label
+
 if TYPE_CHECKING:  # the results' types only
     import xarray as xr
 
@@ -36,15 +38,19 @@ def _jump_text(value: float, width: int) -> str:
 
 # --------------------------------------------------------------------------- sweep
 def sweep_summary(result: object, ds: Any) -> str:
-    """A short table: per direction and sigma, the H1 peak, the jump, the force extremes
-    and the largest share out of contact (``ds``: a sweep dataset, a
+    """A short table: per direction and sigma, the H1 peak (of the order
+    :func:`~hertzsweep.core.lockin.first_harmonic_index` picks), the jump, the force
+    extremes and the largest share out of contact (``ds``: a sweep dataset, a
     :class:`~hertzsweep.output.frame.Frame` or its xarray form)."""
+    orders = ds["harmonic"].values
+    first = first_harmonic_index(orders)
+    peak_name = f"peak H{order_label(orders[first])}"
     lines = [
-        f"{'direction':9s} {'sigma':>8s} {'peak H1':>8s} {'at w':>7s} {'jump w':>7s} "
+        f"{'direction':9s} {'sigma':>8s} {peak_name:>8s} {'at w':>7s} {'jump w':>7s} "
         f"{'N max':>6s} {'N min':>6s} {'loss':>5s}"
     ]
     w = ds["frequency_ratio"].values
-    h1 = ds["amplitude"].values[..., 0]
+    h1 = ds["amplitude"].values[..., first]
     jump = ds["jump_frequency_ratio"].values
     force_max, force_min = ds["force_max"].values, ds["force_min"].values
     loss = ds["contact_loss_fraction"].values
@@ -91,7 +97,7 @@ def trace_summary(result: object, ds: Any) -> str:
     value = {name: ds[name].values for name in TRACE_SUMMARY}
     for i, sigma in enumerate(ds["sigma"].values):
         harmonics = " ".join(
-            f"H{int(k)} {a:.4f}"
+            f"H{order_label(k)} {a:.4f}"
             for k, a in zip(ds["harmonic"].values, value["amplitude"][i], strict=True)
         )
         count = int(value["flight_count"][i])
@@ -152,14 +158,15 @@ def branch_summary(result: BranchResult, ds: Any) -> str:
         f"branch from w = {result.start_frequency_ratio:g} to {result.end_frequency_ratio:g}; "
         f"{result.steps} integration steps"
     ]
+    first = first_harmonic_index(result.harmonics)
     for branch in result.branches:
-        peak = int(np.argmax(branch.amplitude[:, 0]))
+        peak = int(np.argmax(branch.amplitude[:, first]))
         state = ""
         if not branch.complete:
             state = f" (stopped short: {BRANCH_ENDS.get(branch.end, branch.end)})"
         lines.append(
             f"sigma {branch.sigma:g}: {branch.size} points, {int(branch.stable.sum())} stable, "
-            f"peak H{int(result.harmonics[0])} {branch.amplitude[peak, 0]:.4f} at "
+            f"peak H{order_label(result.harmonics[first])} {branch.amplitude[peak, first]:.4f} at "
             f"w = {branch.frequency_ratio[peak]:.4f}{state}"
         )
         if branch.bridges:

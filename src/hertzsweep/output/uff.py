@@ -91,6 +91,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import __version__
+from ..core.lockin import order_label
 from ..drivers.fit import SweepMeasurements
 from ..errors import HertzsweepError, MeasurementError
 from .import_options import ImportOptions
@@ -184,7 +185,7 @@ class ExportReport:
         if self.alone:
             text += f" and {self.alone} alone in a set (pyuff writes no set of one point)"
         if self.skipped_orders:
-            orders = ", ".join(f"{k:g}" for k in self.skipped_orders)
+            orders = ", ".join(order_label(k) for k in self.skipped_orders)
             text += f"; orders {orders} not written (func_id holds whole orders)"
         return text
 
