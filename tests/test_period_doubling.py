@@ -176,6 +176,22 @@ def test_the_half_order_grows_from_zero_as_the_square_root(followed):
         assert np.ptp(ratio) <= SQRT_LAW * ratio.mean()
 
 
+def test_the_branch_reads_the_half_order_its_orbits_hold():
+    """With ``[lockin] harmonics = [0.5, 1]`` the followed branch's H_1/2 (the kernels'
+    lock-in over the orbits' two periods) is the numpy demodulation of each orbit's
+    record, to round-off (1e-12 relative), and 0 on the period-1 branch (below 1e-9)."""
+    scene = pd_scene(**{"lockin.harmonics": [0.5, 1]})
+    result = run_branch(scene)
+    oscillator = Oscillator(scene, SIGMA)
+    period = PeriodMap(oscillator, 2)
+    primary, child = result.family(0)[0], result.family(0)[1]
+    assert np.max(primary.amplitude[:, 0]) < 1e-9
+    for i in (1, 5, 10):
+        y = child.y[i]
+        expected = half_order(oscillator, period.state(y[:-1], y[-1]), y[-1], 2)
+        assert child.amplitude[i, 0] == pytest.approx(expected, rel=1e-12)
+
+
 def test_period_2_orbits_repeat_after_two_periods_and_not_one(followed):
     scene, result = followed
     oscillator = Oscillator(scene, SIGMA)

@@ -137,3 +137,16 @@ def test_the_onset_study_figure_draws_the_estimate_beside_the_sweeps(tmp_path):
     sigma, edge = estimate.get_data()
     assert edge[-1] == pytest.approx(low, abs=1e-9) and sigma[-1] == pytest.approx(50.0)
     assert len([line for line in ax.lines if line.get_label().startswith("n = ")]) == 2
+
+
+def test_a_phase_without_amplitude_is_not_drawn():
+    """A half order read on a period-1 response is round-off, and so is its phase."""
+    import xarray as xr
+
+    from hertzsweep.output.plot import defined_phase
+
+    amplitude = xr.DataArray([1e-12, 0.4, 0.0, np.nan])
+    phase = xr.DataArray([10.0, 20.0, 30.0, 40.0])
+    np.testing.assert_array_equal(
+        defined_phase(phase, amplitude).values, [np.nan, 20, np.nan, np.nan]
+    )

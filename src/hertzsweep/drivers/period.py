@@ -9,8 +9,10 @@ there is none: from a copy of that state, advanced one period at a time with the
 own kernels (every trajectory of a block at once), compared with it with the relative
 tolerance of ``periodic``. The state a sweep carries on and the readings are untouched: a
 dwell that is periodic is n = 1 at no cost; the others cost at most
-2 x :data:`MAX_RESPONSE_PERIOD` periods each, added to the oscillator's ``steps`` (so to the
-run's ``integration_steps``).
+2 x :data:`MAX_RESPONSE_PERIOD` periods each. ``integration_steps`` counts the dwells' steps
+only (what ``validate`` foresees and the budget bounds), not these: a run whose dwells all
+repeat every period costs nothing more, one with N non-periodic dwells at most 16 N periods
+more.
 """
 
 from __future__ import annotations
@@ -72,7 +74,6 @@ def response_periods(
     apart = np.zeros(check.size, dtype=bool)  # after one period: clearly not period 1
     for n in range(1, 2 * MAX_RESPONSE_PERIOD + 1):
         status, _ = oscillator.method.advance_batch(q_prev, q, steps, oscillator.law, kernels, 1)
-        oscillator.steps += check.size * oscillator.steps_per_period
         if status == scheme.STOPPED:
             scheme.check_status(status, oscillator.sigma, float("nan"), 0)
         if status != scheme.OK:  # beyond the dwell's reach: no return to read

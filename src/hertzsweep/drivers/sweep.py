@@ -369,9 +369,7 @@ def _run_lockstep(
                     run.oscillators[bad].check_status(status, w[index[bad]])
                 except HertzsweepError as exc:
                     raise exc.with_context(f"{scene.source}: {direction} sweep") from None
-            before = run.oscillators[0].steps
             periods = response_periods(run.oscillators[0], block, run.drive.sigma, run.h)
-            run.steps += run.oscillators[0].steps - before
             result.store_block(dims, index, block, settled, periods)
             if progress is not None:
                 progress(len(pairs))

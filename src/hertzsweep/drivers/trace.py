@@ -487,6 +487,7 @@ def run_trace(
             state, reading, log = recorder.run(oscillator, state, w, s, sample_step)
         except HertzsweepError as exc:
             raise exc.with_context(f"{scene.source}: trace at w = {w:g}") from None
+        steps += oscillator.steps
         analyser.amplitude(recorder.normal_force(s), offset=1.0, out=spectrum[s])
         amplitude[s], phase[s] = reading.amplitude, reading.phase
         for name in SCALAR_FIELDS:  # flight_tau: from the interpolated flights, below
@@ -494,7 +495,6 @@ def run_trace(
         periodic[s] = reading.periodic
         block = Block.of(reading, state)
         period[s] = response_periods(oscillator, block, np.array([level]), np.array([state.h]))[0]
-        steps += oscillator.steps
         for name, value in reading.extra.items():
             extra.setdefault(name, np.full(sigma.size, np.nan))[s] = value
         intervals.append(log.intervals())

@@ -510,13 +510,25 @@ def sweep_figure(
     for row, k in enumerate(orders):
         flags |= _sweep_markers(axes[row, 0], ds, ds.amplitude.sel(harmonic=k))
         if with_phase:
-            flags |= _sweep_markers(axes[row, 1], ds, ds.phase.sel(harmonic=k), phase=True)
+            phase = defined_phase(ds.phase.sel(harmonic=k), ds.amplitude.sel(harmonic=k))
+            flags |= _sweep_markers(axes[row, 1], ds, phase, phase=True)
     flags |= _subharmonic_jumps(axes.ravel(), ds)
     _label_harmonic_axes(axes, orders, with_phase, f0)
     _sweep_legend(axes[0, 0], ds.sigma.values, list(ds.direction.values), flags)
     text = "Simulated stepped-sine sweep, harmonics of $N/F_s$"
     fig.suptitle(_title(ds, text), fontsize="medium")
     return fig
+
+
+PHASE_FLOOR = 1e-9  # an amplitude below this share of its order's largest has no phase
+
+
+def defined_phase(phase: xr.DataArray, amplitude: xr.DataArray) -> xr.DataArray:
+    """The phases whose amplitude is above :data:`PHASE_FLOOR` of the order's largest:
+    a half order read on a period-1 response is round-off (1e-12 of its size on the
+    period-2 response), and so is its phase, left undrawn (NaN)."""
+    largest = float(np.nanmax(np.abs(amplitude.values))) if np.any(np.isfinite(amplitude)) else 0
+    return phase.where(np.abs(amplitude) > PHASE_FLOOR * largest)
 
 
 def _sweep_forces(ds: xr.Dataset) -> Figure:
