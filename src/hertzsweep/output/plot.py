@@ -523,12 +523,21 @@ def sweep_figure(
 PHASE_FLOOR = 1e-9  # an amplitude below this share of its order's largest has no phase
 
 
-def defined_phase(phase: xr.DataArray, amplitude: xr.DataArray) -> xr.DataArray:
-    """The phases whose amplitude is above :data:`PHASE_FLOOR` of the order's largest:
-    a half order read on a period-1 response is round-off (1e-12 of its size on the
-    period-2 response), and so is its phase, left undrawn (NaN)."""
-    largest = float(np.nanmax(np.abs(amplitude.values))) if np.any(np.isfinite(amplitude)) else 0
-    return phase.where(np.abs(amplitude) > PHASE_FLOOR * largest)
+def phase_floor(amplitude: xr.DataArray) -> float:
+    """The amplitude below which an order's phase is not drawn: :data:`PHASE_FLOOR` of
+    its largest."""
+    finite = np.abs(amplitude.values[np.isfinite(amplitude.values)])
+    return PHASE_FLOOR * float(finite.max()) if finite.size else 0.0
+
+
+def defined_phase(
+    phase: xr.DataArray, amplitude: xr.DataArray, floor: float | None = None
+) -> xr.DataArray:
+    """The phases whose amplitude is above ``floor`` (default :func:`phase_floor` of
+    ``amplitude``): a half order read on a period-1 response is round-off (1e-12 of its
+    size on the period-2 response), and so is its phase, left undrawn (NaN)."""
+    floor = phase_floor(amplitude) if floor is None else floor
+    return phase.where(np.abs(amplitude) > floor)
 
 
 def _sweep_forces(ds: xr.Dataset) -> Figure:
@@ -596,7 +605,8 @@ def branch_figure(
     fig = _new_figure(*panel_size(with_phase, len(orders)))
     axes = fig.subplots(len(orders), 2 if with_phase else 1, squeeze=False, sharex=True)
     sigmas = ds.sigma.values
-    windows = {k: phase_window(_panel_phases(ds, overlay, k)) for k in orders}
+    floors = {k: phase_floor(ds.amplitude.sel(harmonic=k)) for k in orders}
+    windows = {k: phase_window(_panel_phases(ds, overlay, k, floors[k])) for k in orders}
     kinds_seen: set[str] = set()
     doubled = False
     for i in range(sigmas.size):
@@ -610,7 +620,10 @@ def branch_figure(
             for row, k in enumerate(orders):
                 panels = [(axes[row, 0], one.amplitude.sel(harmonic=k).values, False)]
                 if with_phase:
-                    phase = drawn_phase(one.phase.sel(harmonic=k).values, windows[k])
+                    defined = defined_phase(
+                        one.phase.sel(harmonic=k), one.amplitude.sel(harmonic=k), floors[k]
+                    )
+                    phase = drawn_phase(defined.values, windows[k])
                     panels.append((axes[row, 1], phase, wrapped))
                 for ax, y, breaks in panels:
                     for start, stop, stable in runs:
@@ -704,9 +717,13 @@ def _mark_bifurcations(ax, one: xr.Dataset, y: np.ndarray, colour: str) -> set[s
     return seen
 
 
-def _panel_phases(ds: xr.Dataset, overlay: xr.Dataset | None, k: int) -> np.ndarray:
-    """Every phase of harmonic k a branch panel draws: the branch's and the overlay's."""
-    values = [np.ravel(ds.phase.sel(harmonic=k).values)]
+def _panel_phases(
+    ds: xr.Dataset, overlay: xr.Dataset | None, k: float, floor: float = 0.0
+) -> np.ndarray:
+    """Every phase of harmonic k a branch panel draws: the branch's (where defined,
+    :func:`defined_phase`) and the overlay's."""
+    phase = defined_phase(ds.phase.sel(harmonic=k), ds.amplitude.sel(harmonic=k), floor)
+    values = [np.ravel(phase.values)]
     if overlay is not None and "phase" in overlay and k in overlay.harmonic.values:
         values.append(np.ravel(overlay.phase.sel(harmonic=k).values))
     return np.concatenate(values)
