@@ -136,6 +136,30 @@ class Figures:
     stability_limit: float
     stability_margin: float
 
+    @classmethod
+    def of(
+        cls,
+        scene: Scene,
+        points: int,
+        trajectories: int,
+        periods: int,
+        steps: int,
+        memory: int,
+        limit: float,
+    ) -> Figures:
+        """The figures of a checked scene; its budgets and margin follow from the scene."""
+        return cls(
+            points=int(points),
+            trajectories=trajectories,
+            periods_per_dwell=periods,
+            steps=steps,
+            max_steps=max_steps(scene),
+            memory=memory,
+            memory_budget=MEMORY_BUDGET,
+            stability_limit=limit,
+            stability_margin=scene.solver.steps_per_period / limit,
+        )
+
 
 # --------------------------------------------------------------------------- the rig
 def rig_source(scene: Scene) -> str:
@@ -682,17 +706,8 @@ def preflight_random(scene: Scene) -> Figures:
     limit = check_random_stability(scene)
     steps = check_random_steps(scene)
     memory = check_random_memory(scene)
-    return Figures(
-        points=1,
-        trajectories=random_trajectories(scene),
-        periods_per_dwell=record_periods(scene),
-        steps=steps,
-        max_steps=max_steps(scene),
-        memory=memory,
-        memory_budget=MEMORY_BUDGET,
-        stability_limit=limit,
-        stability_margin=scene.solver.steps_per_period / limit,
-    )
+    trajectories = random_trajectories(scene)
+    return Figures.of(scene, 1, trajectories, record_periods(scene), steps, memory, limit)
 
 
 # --------------------------------------------------------------------------- preflight
@@ -723,17 +738,9 @@ def preflight(scene: Scene) -> Figures:
     check_measure_periods(scene)
     steps = check_steps(scene, grid.size)
     memory = check_memory(scene, grid.size)
-    return Figures(
-        points=int(grid.size),
-        trajectories=len(scene.sweep.directions) * len(scene.excitation.sigma),
-        periods_per_dwell=periods_per_dwell(scene.sweep, check_periods(scene)),
-        steps=steps,
-        max_steps=max_steps(scene),
-        memory=memory,
-        memory_budget=MEMORY_BUDGET,
-        stability_limit=limit,
-        stability_margin=scene.solver.steps_per_period / limit,
-    )
+    trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
+    periods = periods_per_dwell(scene.sweep, check_periods(scene))
+    return Figures.of(scene, grid.size, trajectories, periods, steps, memory, limit)
 
 
 def load_checked_scene(

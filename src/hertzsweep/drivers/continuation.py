@@ -40,7 +40,6 @@ stop short of the far end (``Branch.end``).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -784,7 +783,7 @@ def _assemble(run: _Continuation, state: ContinuationState, steps: int) -> Branc
     each cluster of grazing folds once (:func:`_fold_clusters`)."""
     ordered = _ordered(state)
     oscillator = run.oscillator
-    periods = math.lcm(run.periods, oscillator.denominator)  # whole periods of every order
+    periods = run.period.reading_periods
     harmonics = list(oscillator.harmonics)
     h1 = harmonics.index(1) if 1 in harmonics else None
     readings: list[Reading] = []

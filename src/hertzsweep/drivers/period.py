@@ -44,7 +44,8 @@ def response_periods(
     sigma, h : float[T]
         The input level and the step of each dwell.
 
-    The state ``x_0`` at the end of a dwell is advanced up to 16 periods; it returns after
+    The state ``x_0`` at the end of a dwell is advanced up to 16 periods (fewer once every
+    trajectory's answer is known); it returns after
     k periods where ``max |x_k - x_0|`` (over the state's members, the ball's too) lies
     below ``tolerance`` times the scale of ``periodic`` (the larger of ``|q|``, ``|q_prev|``
     and half the force's peak-to-peak range). n is the smallest n = 2 ... 8 for which it
@@ -71,8 +72,9 @@ def response_periods(
     steps = np.asarray(h, dtype=float)[check].copy()
     kernels = drive(oscillator.scene, np.asarray(sigma, dtype=float)[check])
     returns = np.zeros((2 * MAX_RESPONSE_PERIOD + 1, check.size), dtype=bool)
-    apart = np.zeros(check.size, dtype=bool)  # after one period: clearly not period 1
-    for n in range(1, 2 * MAX_RESPONSE_PERIOD + 1):
+    found = np.zeros(check.size, dtype=np.int8)  # the smallest n returning at n and 2n
+    settling = np.ones(check.size, dtype=bool)  # until one period is read: no period known
+    for p in range(1, 2 * MAX_RESPONSE_PERIOD + 1):
         status, _ = oscillator.method.advance_batch(q_prev, q, steps, oscillator.law, kernels, 1)
         if status == scheme.STOPPED:
             scheme.check_status(status, oscillator.sigma, float("nan"), 0)
@@ -80,13 +82,14 @@ def response_periods(
             break
         now = np.stack([q_prev, q], axis=1)
         relative = _flat(np.abs(now - start)).max(axis=1) / scale
-        returns[n] = relative < oscillator.periodic_tolerance
-        if n == 1:
-            apart = relative >= APART * oscillator.periodic_tolerance
-    found = np.zeros(check.size, dtype=np.int8)
-    for n in range(MAX_RESPONSE_PERIOD, 1, -1):  # the smallest n returning at n and 2n
-        found[returns[n] & returns[2 * n]] = n
-    found[returns[1] | ~apart] = NONE  # near period 1, not periodic when read: a transient
+        returns[p] = relative < oscillator.periodic_tolerance
+        if p == 1:  # after one period: clearly not period 1, or a transient (NONE)
+            settling = returns[1] | (relative < APART * oscillator.periodic_tolerance)
+        elif p % 2 == 0:
+            found[(found == 0) & returns[p // 2] & returns[p]] = p // 2
+        if np.all(settling | (found > 0)):
+            break  # every trajectory's answer is known
+    found[settling] = NONE  # near period 1, not periodic when read: a transient
     out[check] = found
     return out
 

@@ -175,6 +175,12 @@ class PeriodMap:
         self.size = self.basis.shape[0]  # 2 for the single model, 4 for the ball model
         self._derivative = np.zeros((self.size, self.size + 1))
 
+    @property
+    def reading_periods(self) -> int:
+        """The periods a converged orbit is read over: whole periods of the orbit (n) and
+        of every lock-in order (the orders' common denominator L), ``lcm(n, L)``."""
+        return math.lcm(self.periods, self.oscillator.denominator)
+
     def vector(self, state: State) -> np.ndarray:
         """``x``: the state's two members (each a float, or the ball model's float[2])."""
         return np.concatenate((np.atleast_1d(state.q_prev), np.atleast_1d(state.q)))
@@ -425,7 +431,7 @@ def shooting_dwell(
     period = PeriodMap(oscillator, oscillator.scene.sweep.period_multiple)
     state = oscillator.retune(state, frequency_ratio)
     orbit = find_orbit(period, state, frequency_ratio)
-    converged = CONVERGED_PERIODS * math.lcm(period.periods, oscillator.denominator)
+    converged = CONVERGED_PERIODS * period.reading_periods
     measured = converged if orbit.stable else oscillator.scene.sweep.measure_periods
     state, reading = oscillator.measure(orbit.state, frequency_ratio, measured)
     return state, reading, orbit.stable

@@ -948,8 +948,7 @@ def study_figure(ds: xr.Dataset, view: str = "jumps") -> Figure:
             flagged = True
     if flagged:
         ax.plot([], [], ls="none", marker="x", ms=9, mew=1.4, color="k", label=JUMP_FLAG)
-    if subharmonic and x_dim == "sigma" and _mathieu_edge(ax, ds, x, direction):
-        others = others or ["estimate"]  # a legend for the estimate's line
+    estimate = subharmonic and x_dim == "sigma" and _mathieu_edge(ax, ds, x, direction)
     drawn = x[np.any(np.isfinite(jump.transpose(x_dim, ...).values.reshape(x.size, -1)), axis=1)]
     if drawn.size > 1 and drawn.min() > 0 and drawn.max() / drawn.min() > 10:
         ax.set_xscale("log")  # levels spread over decades (0.2 % to 8 %)
@@ -963,7 +962,7 @@ def study_figure(ds: xr.Dataset, view: str = "jumps") -> Figure:
     ax.set_ylabel(rf"{quantity} frequency ratio $\varpi$ [1]")
     ax.grid(True, which="both", lw=0.3)
     _hz_axis(ax, _f0(ds), where="right")
-    if others or flagged:
+    if others or flagged or estimate:
         ax.legend(fontsize="small", loc="best")
     failed = ds.case_failed.broadcast_like(jump) == 1 if "case_failed" in ds else False
     if np.any(np.isnan(jump.values) & ~np.asarray(failed)):
