@@ -129,18 +129,87 @@ def test_segments_give_the_numbers_of_one_long_run():
     assert np.array_equal(record.excess, cut)
 
 
+def fused(law, level, realisations, g, n, segments, tally=None):
+    """:func:`batch` with :func:`kernels.measure` (the level outer, the realisation inner);
+    returns the excess, the tally and the state."""
+    steps = 20 * n
+    count = len(level)
+    drive = kernels.inputs(
+        np.array(level), np.tile(np.arange(realisations), count // realisations), n
+    )
+    state = kernels.at_rest(drive, g, 2 * math.pi / n)
+    record = kernels.new_record(steps, count)
+    tally = kernels.new_tally(count, 64, 0.0, 0.1)
+    excess = []
+    for s in range(segments):
+        status, bad = kernels.measure(
+            law, 2 * math.pi / n, state, drive, g[s * steps :], record, tally
+        )
+        assert (status, bad) == (kernels.OK, -1)
+        excess.append(record.excess.copy())
+    return np.concatenate(excess), tally, state
+
+
+@pytest.mark.parametrize("law", ["viscous", "contact"])
+@pytest.mark.parametrize("realisations", [3, 75])  # one block a level; two, the second short
+def test_the_fused_kernel_gives_the_numbers_of_advance_and_accumulate(law, realisations):
+    """Bit for bit: the readings, every tally (flights included: the second level loses
+    contact) and the histogram, over three segments (the tallies and flights carried
+    across them)."""
+    n = 32
+    g = np.stack([unit_forcing(0, r, BAND, 60, n) for r in range(realisations)], axis=1)
+    level = [0.05] * realisations + [0.3] * realisations
+    model = make_law(law, ZETA, 1.5)
+    excess, tally, state = fused(model, level, realisations, g, n, 3)
+    reference, expected = batch(model, level, list(range(realisations)) * 2, g, n, 3)
+    assert tally.sums[kernels.TALLY_FIELDS.index("landings"), realisations:].min() > 0
+    assert np.array_equal(excess, reference)
+    assert np.array_equal(tally.sums, expected.sums)
+    assert np.array_equal(tally.histogram, expected.histogram)
+    # the transient's kernel: the state of advance, unrecorded
+    drive = kernels.inputs(np.array(level), np.tile(np.arange(realisations), 2), n)
+    h = 2 * math.pi / n
+    settled, advanced = kernels.at_rest(drive, g, h), kernels.at_rest(drive, g, h)
+    assert kernels.settle(model, h, settled, drive, g, 60 * n) == (kernels.OK, -1)
+    kernels.advance(model, h, advanced, drive, g, kernels.new_record(60 * n, len(level)))
+    assert np.array_equal(settled, advanced)
+    assert np.array_equal(advanced, state)
+
+
+def test_the_fused_kernel_names_the_unstable_trajectory():
+    """At 8 steps a period, rms 100 drives the compression beyond the stability limit:
+    the status names the first such trajectory (of the second level), as
+    :func:`kernels.advance` does."""
+    n, realisations = 8, 5
+    g = np.stack([unit_forcing(0, r, BAND, 60, n) for r in range(realisations)], axis=1)
+    level = np.array([0.001] * realisations + [100.0] * realisations)
+    drive = kernels.inputs(level, np.tile(np.arange(realisations), 2), n)
+    law, h = make_law("viscous", ZETA, 1.5), 2 * math.pi / n
+    record = kernels.new_record(60 * n, level.size)
+    expected = kernels.advance(law, h, kernels.at_rest(drive, g, h), drive, g, record)
+    tally = kernels.new_tally(level.size, 64, 0.0, 0.1)
+    state = kernels.at_rest(drive, g, h)
+    status = kernels.measure(law, h, state, drive, g, record, tally)
+    assert expected[0] == kernels.UNSTABLE and expected[1] >= realisations
+    assert status == expected
+    assert tally.sums[kernels.COUNT].max() == 0.0  # the failed segment is not counted
+
+
 def test_the_kernel_stops_on_request():
     n = 32
     g = unit_forcing(0, 0, BAND, 10, n)[:, None]
     record = kernels.new_record(10 * n, 1)
     drive = kernels.inputs(np.array([0.1]), np.array([0]), n)
+    tally = kernels.new_tally(1, 64, 0.0, 0.1)
     stop.request(15)
     try:
         law, h = make_law("viscous", ZETA, 1.5), 2 * math.pi / n
         status, _ = kernels.advance(law, h, kernels.at_rest(drive, g, h), drive, g, record)
+        fused, _ = kernels.measure(law, h, kernels.at_rest(drive, g, h), drive, g, record, tally)
+        settled, _ = kernels.settle(law, h, kernels.at_rest(drive, g, h), drive, g, 10 * n)
     finally:
         stop.clear()
-    assert status == kernels.STOPPED
+    assert status == fused == settled == kernels.STOPPED
 
 
 # --------------------------------------------------------------------------- linear regime

@@ -808,14 +808,16 @@ def random_costs(scene: Scene, repeats: int = 3) -> dict[str, float]:
     """ns per trajectory-step of the scene's random run (best of ``repeats``): the whole
     run (:func:`~hertzsweep.drivers.random.run_random`: the forcing table, the compiled
     steps and tallies, the Welch spectra and the statistics); its compiled steps alone
-    (:func:`~hertzsweep.kernels.random.advance` and
-    :func:`~hertzsweep.kernels.random.accumulate` over every segment of the record, the
-    forcing table made beforehand); and the forcing table alone
-    (:func:`~hertzsweep.drivers.random.forcing_table`). The rest of the whole is the
-    Welch spectra and the statistics."""
+    (the scene's kernels over every segment of the record: ``settle`` (or ``advance``)
+    through the transient, ``measure`` (or ``advance`` and
+    :func:`~hertzsweep.kernels.random.accumulate`) through the measured record, the
+    forcing table made beforehand); the compiled steps without the tallies (``settle``,
+    or ``advance``, over every segment: the steps alone); the forcing table alone
+    (:func:`~hertzsweep.drivers.random.forcing_table`); and the Welch sums alone
+    (:class:`~hertzsweep.drivers.random.Welch` over the measured segments)."""
     from ..kernels import random as kernels
     from .oscillator import model_law
-    from .random import Plan, forcing_table, run_random
+    from .random import Plan, Welch, forcing_table, kernel, run_random
 
     _warm_random()
     steps = run_random(scene).steps
@@ -829,20 +831,38 @@ def random_costs(scene: Scene, repeats: int = 3) -> dict[str, float]:
         plan.steps_per_period,
     )
     law = model_law(scene)
-    record = kernels.new_record(plan.segment_steps, plan.trajectories)
+    chosen = kernel(scene)
+    record = chosen.new_record(plan.segment_steps, plan.trajectories)
+    m = plan.per_step
 
-    def compiled() -> None:
-        state = kernels.at_rest(inputs, table, plan.h)
+    def compiled(tallied: bool = True) -> None:
+        state = chosen.at_rest(inputs, table, plan.h, law)
         tally = kernels.new_tally(plan.trajectories, plan.bins, 0.0, plan.pdf_high / plan.bins)
-        for first, length, _ in plan.chunks():
-            part = kernels.Record(record.excess[:length], record.contact[:length])
-            kernels.advance(law, plan.h, state, inputs, table[first:], part)
-            kernels.accumulate(part, tally)
+        for first, length, measured in plan.chunks():
+            part = type(record)(*(buffer[:length] for buffer in record))
+            g = table[m * first :]
+            if measured and tallied and chosen.measure is not None:
+                chosen.measure(law, plan.h, state, inputs, g, part, tally)
+                continue
+            if chosen.settle is not None and not (measured and tallied):
+                chosen.settle(law, plan.h, state, inputs, g, length)
+                continue
+            chosen.advance(law, plan.h, state, inputs, g, part)
+            if measured and tallied:
+                kernels.accumulate(part, tally)
+
+    def welch() -> None:
+        sums = Welch(plan)
+        for first, length, measured in plan.chunks():
+            if measured and length == plan.segment_steps:
+                sums.add(record.excess, table[m * first : m * (first + length) : m], inputs)
 
     return {
         "ns_per_trajectory_step": whole / steps * 1e9,
         "compiled_ns_per_trajectory_step": _best(compiled, repeats) / steps * 1e9,
+        "untallied_ns_per_trajectory_step": _best(lambda: compiled(False), repeats) / steps * 1e9,
         "forcing_ns_per_trajectory_step": forcing / steps * 1e9,
+        "welch_ns_per_trajectory_step": _best(welch, repeats) / steps * 1e9,
     }
 
 
@@ -865,7 +885,9 @@ def random_figures(lockstep_ns: float, quick: bool = False) -> dict[str, Any]:
         "random_ratio_to_lockstep": costs["ns_per_trajectory_step"] / lockstep_ns,
         "random_compiled_ns_per_trajectory_step": costs["compiled_ns_per_trajectory_step"],
         "random_compiled_ratio_to_lockstep": costs["compiled_ns_per_trajectory_step"] / lockstep_ns,
+        "random_untallied_ns_per_trajectory_step": costs["untallied_ns_per_trajectory_step"],
         "random_forcing_ns_per_trajectory_step": costs["forcing_ns_per_trajectory_step"],
+        "random_welch_ns_per_trajectory_step": costs["welch_ns_per_trajectory_step"],
     }
     paper = paper_random_scene()
     out["random_paper_trajectory_steps"] = run_random(paper).steps

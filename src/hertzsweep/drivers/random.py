@@ -372,13 +372,21 @@ def _integrate(plan: Plan, law: Any, sums: Sums, progress: Progress | None, scen
     record = scheme_of.new_record(plan.segment_steps, plan.trajectories)
     for first, length, measured in plan.chunks():
         part = type(record)(*(buffer[:length] for buffer in record))
-        status, bad = scheme_of.advance(law, plan.h, state, drive, table[m * first :], part)
+        g = table[m * first :]
+        fused = measured and scheme_of.measure is not None
+        if fused:
+            status, bad = scheme_of.measure(law, plan.h, state, drive, g, part, sums.tally)
+        elif not measured and scheme_of.settle is not None:
+            status, bad = scheme_of.settle(law, plan.h, state, drive, g, length)
+        else:
+            status, bad = scheme_of.advance(law, plan.h, state, drive, g, part)
         if status != scheme.OK:
             _raise(status, bad, plan, scene)
         sums.steps += length * plan.trajectories
         if measured:
             forcing = at_steps[first : first + length]
-            kernels.accumulate(part, sums.tally)
+            if not fused:
+                kernels.accumulate(part, sums.tally)
             sums.trace.add(part.excess, forcing, drive)
             if sums.ball_flight is not None:
                 sums.ball_flight += np.count_nonzero(part.flight, axis=0)

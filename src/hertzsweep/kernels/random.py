@@ -32,8 +32,12 @@ that a record cut into segments gives the numbers of one long run bit for bit.
 
 :func:`accumulate` adds a recorded segment to the running :class:`Tally` of every
 trajectory (moments, extremes, contact loss, flights, histogram), whichever kernel
-recorded it. As in :mod:`.integrate`, every trajectory performs the operations of a single
-one, so one trajectory alone and T together give the same numbers bit for bit.
+recorded it. For the single model with the central difference, :func:`measure` does
+both in one pass, and :func:`settle` steps a transient unrecorded, in blocks of
+trajectories vectorised across a step (the tallies in the block's rows, not re-read from
+a record), with the same numbers bit for bit. As in :mod:`.integrate`, every trajectory
+performs the operations of a single one, so one trajectory alone and T together give the
+same numbers bit for bit.
 """
 
 from __future__ import annotations
@@ -47,7 +51,7 @@ from numba import njit
 from . import CACHE
 from .ball import _observe
 from .ball import _status as _ball_status
-from .integrate import _finite, observe
+from .integrate import LANES, _finite, observe
 from .rk import ZERO, _acceleration, _correct, _crossing, _rk4
 from .scheme import (
     NON_FINITE,
@@ -273,6 +277,215 @@ def accumulate(record, tally):
         sums[MINIMUM, t], sums[MAXIMUM, t] = smallest, largest
         sums[LOSS, t], sums[LIFT_OFFS, t], sums[LANDINGS, t] = loss, lift_offs, landings
         sums[FLIGHT_TOTAL, t], sums[FLIGHT_LONGEST, t], sums[RUN, t] = total, longest, run
+
+
+# --------------------------------------------------------------------------- measured, fused
+# The rows of a block of :func:`measure`'s working array (LANES trajectories a block, as in
+# :func:`.integrate.measure`: rows a constant LANES apart, so that a step across a block is
+# one vectorised loop): the state, the level, the peak root, the step's reading, the
+# forcing sample, the histogram bin, then the running tallies of a step. Of
+# TALLY_FIELDS, COUNT is added once a segment, and LANDINGS and FLIGHT_TOTAL follow from
+# the others (every lift-off but that of a flight in progress has landed, and every step
+# out of contact belongs to a flight ended or to the one in progress): ``landings =
+# lift_offs - (run > 0)``, ``flight_total = loss - run``.
+B_PREV, B_D, B_LEVEL, B_PEAK, B_X, B_G, B_BIN = range(7)
+B_TALLIED = (SUM1, SUM2, SUM3, SUM4, MINIMUM, MAXIMUM, LOSS, LIFT_OFFS, FLIGHT_LONGEST, RUN)
+B_TALLY = 7
+B_ROWS = B_TALLY + len(B_TALLIED)
+B_SUM1, B_SUM2, B_SUM3, B_SUM4, B_MIN, B_MAX, B_LOSS, B_LIFT, B_LONGEST, B_RUN = range(
+    B_TALLY, B_ROWS
+)
+
+
+@njit(cache=CACHE, inline="always")
+def _place(t, realisations):
+    """``(block, lane)`` of trajectory t in :func:`measure`'s blocks: each level's R
+    realisations fill ``ceil(R / LANES)`` blocks of their own, so that lane i of a block
+    reads the forcing's column ``i + LANES (block's rank in its level)``."""
+    per_level = (realisations + LANES - 1) // LANES
+    level, r = t // realisations, t % realisations
+    return level * per_level + r // LANES, r % LANES
+
+
+@njit(cache=CACHE)
+def _blocks(state, drive, tally, realisations):
+    """The working array of :func:`measure`: float[blocks, B_ROWS x LANES], its rows on
+    64-byte lines."""
+    count = drive.level.shape[0]
+    blocks = (count // realisations) * ((realisations + LANES - 1) // LANES)
+    shape = (blocks, B_ROWS * LANES)
+    size = shape[0] * shape[1]
+    raw = np.zeros(size + 8)
+    first = ((-raw.ctypes.data) % 64) // 8
+    lanes = raw[first : first + size].reshape(shape)
+    for t in range(count):
+        block, i = _place(t, realisations)
+        row = lanes[block]
+        row[i + B_PREV * LANES] = state[0, t]
+        row[i + B_D * LANES] = state[1, t]
+        row[i + B_LEVEL * LANES] = drive.level[t]
+        for r in range(len(B_TALLIED)):
+            row[i + (B_TALLY + r) * LANES] = tally.sums[B_TALLIED[r], t]
+    return lanes
+
+
+@njit(cache=CACHE)
+def _unblock(lanes, state, tally, steps, realisations):
+    """The blocks' state and tallies back into ``state`` and ``tally`` (``steps`` more
+    counted; LANDINGS and FLIGHT_TOTAL from the others; None: the state alone)."""
+    for t in range(state.shape[1]):
+        block, i = _place(t, realisations)
+        row = lanes[block]
+        state[0, t] = row[i + B_PREV * LANES]
+        state[1, t] = row[i + B_D * LANES]
+        if tally is None:
+            continue
+        sums = tally.sums
+        sums[COUNT, t] += steps
+        for r in range(len(B_TALLIED)):
+            sums[B_TALLIED[r], t] = row[i + (B_TALLY + r) * LANES]
+        sums[LANDINGS, t] = sums[LIFT_OFFS, t] - (1.0 if sums[RUN, t] > 0.0 else 0.0)
+        sums[FLIGHT_TOTAL, t] = sums[LOSS, t] - sums[RUN, t]
+
+
+@njit(cache=CACHE, error_model="numpy", inline="always")
+def _tally_lane(row, i, x, touching, bin_of):
+    """One step's ``x = N/F_s - 1`` and contact flag into lane i's tallies (the operations
+    of :func:`accumulate` for that step, branch-free) and its histogram bin (``bin_of =
+    (low, width, bins)``: :func:`_bin`'s; a NaN in the first bin) into its row."""
+    x2 = x * x
+    row[i + B_SUM1 * LANES] += x
+    row[i + B_SUM2 * LANES] += x2
+    row[i + B_SUM3 * LANES] += x2 * x
+    row[i + B_SUM4 * LANES] += x2 * x2
+    smallest = row[i + B_MIN * LANES]
+    largest = row[i + B_MAX * LANES]
+    row[i + B_MIN * LANES] = x if x < smallest else smallest
+    row[i + B_MAX * LANES] = x if x > largest else largest
+    run = row[i + B_RUN * LANES]
+    longest = row[i + B_LONGEST * LANES]
+    row[i + B_LOSS * LANES] += 0.0 if touching else 1.0
+    row[i + B_LIFT * LANES] += 1.0 if (not touching and run == 0.0) else 0.0
+    row[i + B_LONGEST * LANES] = run if (touching and run > longest) else longest
+    row[i + B_RUN * LANES] = 0.0 if touching else run + 1.0
+    low, width, bins = bin_of
+    u = (1.0 + x - low) / width
+    top = bins - 1.0
+    row[i + B_BIN * LANES] = 0.0 if not u >= 1.0 else (top if u >= top else math.floor(u))
+
+
+@njit(cache=CACHE, error_model="numpy")
+def _lanes_check(lanes, count, limit, stop, realisations):
+    """:func:`_check` of the blocks (compressions)."""
+    peak = np.empty(count)
+    d_prev = np.empty(count)
+    d = np.empty(count)
+    for t in range(count):
+        block, i = _place(t, realisations)
+        row = lanes[block]
+        peak[t] = row[i + B_PEAK * LANES]
+        d_prev[t] = row[i + B_PREV * LANES]
+        d[t] = row[i + B_D * LANES]
+    return _check(peak, limit, d_prev, d, True, stop)
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def measure(law, h, state, drive, g, record, tally):
+    """:func:`advance` and :func:`accumulate` of a segment in one pass, the same numbers
+    bit for bit (every trajectory's operations and their order are theirs).
+
+    The trajectories are the run's: L levels of R realisations, the level outer
+    (``drive.realisation[t] == t % R``, R = ``g.shape[1]``), the histogram's bins the
+    same for all (``tally.low``, ``tally.width`` constant). A block of
+    :data:`~.integrate.LANES` realisations of one level at a time: each step across the
+    block in one vectorised loop, the tallies and the histogram bins in another, then the
+    bins counted and N/F_s - 1 written to ``record.excess``; ``record.contact`` is not
+    written (the flights are tallied here). Returns :func:`advance`'s ``(status,
+    trajectory)``; on a status other than OK neither the state nor the tallies are
+    written back (the segment is not counted)."""
+    return _segment(law, h, state, drive, g, record.excess, tally, True)
+
+
+@njit(cache=CACHE, error_model="numpy", nogil=True)
+def settle(law, h, state, drive, g, steps):
+    """``steps`` steps of :func:`measure`'s trajectories, unrecorded and untallied (a
+    transient): :func:`advance`'s state and status, bit for bit."""
+    count = drive.level.shape[0]
+    tally = _empty_tally(count, 1)
+    return _segment(law, h, state, drive, g, np.empty((steps, 0)), tally, False)
+
+
+@njit(cache=CACHE)
+def _empty_tally(count, bins):
+    """:func:`new_tally` compiled: empty tallies of ``count`` trajectories on ``bins``
+    bins of width 1 from 0."""
+    sums = np.zeros((FIELDS, count))
+    sums[MINIMUM] = np.inf
+    sums[MAXIMUM] = -np.inf
+    return Tally(sums, np.zeros((bins, count)), np.zeros(count), np.ones(count))
+
+
+@njit(cache=CACHE, error_model="numpy", inline="always")
+def _step_block(law, row, width, k, rate):
+    """One step of the first ``width`` lanes of a block (``row``): :func:`.integrate.observe`
+    under the load ``1 + level g`` (g in the row B_G), the peak root and the reading, in
+    one loop over the lanes; the compression before the step is left in B_PREV."""
+    for i in range(width):
+        dt = row[i + B_D * LANES]
+        load = forcing(row[i + B_LEVEL * LANES], row[i + B_G * LANES])
+        root, d_next, x, _ = observe(law, row[i + B_PREV * LANES], dt, load, k, rate)
+        peak = row[i + B_PEAK * LANES]
+        row[i + B_PEAK * LANES] = root if root > peak else peak
+        row[i + B_X * LANES] = x
+        row[i + B_PREV * LANES] = dt
+        row[i + B_D * LANES] = d_next
+
+
+@njit(cache=CACHE, error_model="numpy", inline="always")
+def _segment(law, h, state, drive, g, excess, tally, tallied):
+    """``excess.shape[0]`` steps of :func:`measure` (``tallied``) or :func:`settle`."""
+    s = make_step(law, h)
+    k = constant(s)
+    rate = s.rate
+    count = drive.level.shape[0]
+    realisations = g.shape[1]
+    per_level = (realisations + LANES - 1) // LANES
+    levels = count // realisations
+    histogram = tally.histogram
+    bin_of = (tally.low[0], tally.width[0], float(histogram.shape[0]))
+    lanes = _blocks(state, drive, tally, realisations)
+    since = 0
+    for j in range(excess.shape[0]):
+        row_g = g[j]
+        # blocks by level and rank: indices from ranges and products only, so that the
+        # compiler sees every one >= 0 (numba wraps a negative index, and a remainder's
+        # sign is not known: the loops then stay scalar)
+        for level in range(levels):
+            for rank in range(per_level):
+                row = lanes[level * per_level + rank]
+                column = rank * LANES  # lane i's column: column + i
+                base = level * realisations + column  # and its trajectory: base + i
+                width = min(LANES, realisations - column)
+                for i in range(width):
+                    row[i + B_G * LANES] = row_g[column + i]
+                _step_block(law, row, width, k, rate)
+                if not tallied:
+                    continue
+                for i in range(width):
+                    x = row[i + B_X * LANES]
+                    _tally_lane(row, i, x, row[i + B_PREV * LANES] > 0.0, bin_of)
+                out = excess[j]
+                for i in range(width):
+                    out[base + i] = row[i + B_X * LANES]
+                    histogram[int(row[i + B_BIN * LANES]), base + i] += 1.0
+        since += 1
+        if since == drive.steps_per_period or j == excess.shape[0] - 1:
+            since = 0
+            status, bad = _lanes_check(lanes, count, s.limit, drive.stop, realisations)
+            if status != OK:
+                return status, bad
+    _unblock(lanes, state, tally if tallied else None, excess.shape[0], realisations)
+    return OK, -1
 
 
 # --------------------------------------------------------------------------- rk4
@@ -511,15 +724,21 @@ def advance_ball(model, h, state, drive, g, record):
 
 
 # --------------------------------------------------------------------------- the registry
-Kernel = namedtuple("Kernel", ["advance", "at_rest", "new_record", "per_step"])
+Kernel = namedtuple("Kernel", ["advance", "at_rest", "new_record", "per_step", "measure", "settle"])
 """One model's and method's kernels: ``advance(law, h, state, drive, g, record)``,
-``at_rest(drive, g, h, law)``, ``new_record(steps, trajectories)`` and ``per_step``, the
-forcing's samples a step (rk4: 2, the half steps too)."""
+``at_rest(drive, g, h, law)``, ``new_record(steps, trajectories)``, ``per_step``, the
+forcing's samples a step (rk4: 2, the half steps too); and, where the model and method
+have them, ``measure(law, h, state, drive, g, record, tally)``, a measured segment's
+``advance`` and :func:`accumulate` in one pass, and ``settle(law, h, state, drive, g,
+steps)``, a transient's ``advance`` unrecorded (None: ``advance``, then
+:func:`accumulate` for a measured segment)."""
 
 KERNELS = {
-    ("single", "central-difference"): Kernel(advance, at_rest, new_record, 1),
-    ("single", "rk4"): Kernel(advance_rk4, at_rest_rk4, new_record, 2),
-    ("ball", "central-difference"): Kernel(advance_ball, at_rest_ball, new_ball_record, 1),
+    ("single", "central-difference"): Kernel(advance, at_rest, new_record, 1, measure, settle),
+    ("single", "rk4"): Kernel(advance_rk4, at_rest_rk4, new_record, 2, None, None),
+    ("ball", "central-difference"): Kernel(
+        advance_ball, at_rest_ball, new_ball_record, 1, None, None
+    ),
 }
 """The kernels of each ``(model.kind, solver.method)`` a random run takes."""
 
@@ -542,7 +761,9 @@ __all__ = [
     "at_rest_ball",
     "at_rest_rk4",
     "inputs",
+    "measure",
     "new_ball_record",
     "new_record",
     "new_tally",
+    "settle",
 ]
