@@ -13,9 +13,10 @@ segments are discarded; each measured one adds to the running tallies (moments, 
 contact loss, flights, histogram) and, when whole, to the Welch sums of its trajectory, so
 that neither the buffers nor the statistics grow with ``duration_periods``; the forcing
 table does (a float a sample and realisation, at the steps and for rk4 the half steps
-too: each realisation's process is one inverse FFT over the whole record,
-:func:`forcing_table`). The first ``trace_periods`` measured periods of realisation 0 of
-every level are kept as they were recorded (N/F_s and f at the steps).
+too: each realisation's process is one inverse FFT over the whole record, made
+:data:`FORCING_THREADS` realisations at a time, :func:`forcing_table`). The first
+``trace_periods`` measured periods of realisation 0 of every level are kept as they were
+recorded (N/F_s and f at the steps).
 
 Welch: each whole measured segment of N/F_s and of f, its mean removed, times a periodic
 Hann window, one real FFT each (numpy); the segments are contiguous (no overlap). The
@@ -33,14 +34,22 @@ realisations have a value, e.g. the mean flight of realisations without flights)
 from __future__ import annotations
 
 import math
+import os
+import threading
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..core.config import Scene
-from ..core.excitation import linear_response_variance, transmissibility, unit_forcing
+from ..core.excitation import (
+    linear_response_variance,
+    process_periods,
+    transmissibility,
+    unit_forcing,
+)
 from ..core.rig import derive
 from ..errors import HertzsweepError, Interrupted
 from ..kernels import random as kernels
@@ -70,6 +79,8 @@ SCALARS = (  # per level: the statistics of N/F_s and of the flights
 SPECTRA = ("psd", "excitation_psd", "frf_amplitude", "frf_phase", "coherence")  # per bin
 STATISTICS = SPECTRA + ("force_pdf",) + SCALARS  # every statistic, each with its stderr
 BALL_STATISTICS = ("ball_flight_fraction",)  # the ball model's own, per level
+FORCING_THREADS = 2  # realisations made at a time at most (and at most the cores): each
+# holds its spectrum, numpy's work copy and its thread's buffer, 3 floats a sample
 
 
 @dataclass(frozen=True)
@@ -228,14 +239,37 @@ def forcing_table(plan: Plan) -> np.ndarray:
     """The unit forcing of every realisation at every sample of the record:
     float[m L (+1), R] for L steps and m = ``plan.per_step`` samples a step (C order: a
     sample's row holds every realisation). With m > 1 a last row repeats the first: the
-    process's period is the record, so the end of the last step is its start again."""
+    process's period is the record, so the end of the last step is its start again.
+
+    Each realisation is :func:`~hertzsweep.core.excitation.unit_forcing` (its inverse FFT
+    written into a buffer of the process's length that its thread keeps, then its first
+    m L samples into the realisation's column), :data:`FORCING_THREADS` realisations at
+    a time (numpy's FFT releases the GIL): the same numbers as one at a time."""
     m = plan.per_step
     length = m * plan.periods * plan.steps_per_period
+    process = m * process_periods(plan.periods) * plan.steps_per_period
     table = np.empty((length + (m > 1), plan.realisations))
-    for r in range(plan.realisations):
+    buffers = threading.local()
+
+    def column(r: int) -> None:
+        samples = getattr(buffers, "samples", None)
+        if samples is None:
+            samples = buffers.samples = np.empty(process)
         table[:length, r] = unit_forcing(
-            plan.seed, r, plan.band, plan.periods, plan.steps_per_period, per_step=m
+            plan.seed, r, plan.band, plan.periods, plan.steps_per_period, m, out=samples
         )
+
+    workers = min(FORCING_THREADS, os.cpu_count() or 1, plan.realisations)
+    if workers > 1:
+        pool = ThreadPoolExecutor(workers, thread_name_prefix="hertzsweep-forcing")
+        try:
+            for _ in pool.map(column, range(plan.realisations)):
+                pass
+        finally:  # on an interrupt, the realisations not begun are not made
+            pool.shutdown(wait=True, cancel_futures=True)
+    else:
+        for r in range(plan.realisations):
+            column(r)
     if m > 1:
         table[length] = table[0]
     return table
