@@ -19,7 +19,9 @@ too: each realisation's process is one inverse FFT over the whole record, made
 recorded (N/F_s and f at the steps).
 
 Welch: each whole measured segment of N/F_s and of f, its mean removed, times a periodic
-Hann window, one real FFT each (numpy); the segments are contiguous (no overlap). The
+Hann window, one real FFT each (:class:`Welch`: FFTW when pyfftw is installed, else numpy;
+a trajectory's alone, so that its spectra do not depend on how many trajectories run; f's
+once a realisation, shared by the levels); the segments are contiguous (no overlap). The
 one-sided PSD per unit w is ``h |X_k|^2 / (pi sum w_n^2)`` at ``w_k = k / segment_periods``
 (h = 2 pi / N in tau, in which w is the circular frequency), so that the PSD summed over
 every bin times ``1 / segment_periods`` is the windowed segment's mean square
@@ -54,7 +56,9 @@ from ..core.rig import derive
 from ..errors import HertzsweepError, Interrupted
 from ..kernels import random as kernels
 from ..kernels import scheme
+from ..kernels import welch as welch_kernels
 from ..kernels.stop import REQUEST
+from . import spectrum
 from .oscillator import model_law
 
 Progress = Callable[[int], None]
@@ -81,6 +85,9 @@ STATISTICS = SPECTRA + ("force_pdf",) + SCALARS  # every statistic, each with it
 BALL_STATISTICS = ("ball_flight_fraction",)  # the ball model's own, per level
 FORCING_THREADS = 2  # realisations made at a time at most (and at most the cores): each
 # holds its spectrum, numpy's work copy and its thread's buffer, 3 floats a sample
+WELCH_BLOCK = 32  # trajectories windowed, transformed and summed at a time: their rows
+# (S + 2 floats each, 4 MiB in all at S = 16384) are written by one pass over the
+# segment's columns (fewer passes over a wide segment than with blocks of 8, measured)
 
 
 @dataclass(frozen=True)
@@ -278,10 +285,19 @@ def forcing_table(plan: Plan) -> np.ndarray:
 # --------------------------------------------------------------------------- the run
 class Welch:
     """The Welch sums of T trajectories over whole segments of S steps: ``S_NN``,
-    ``S_ff``, ``S_fN`` on the bins k = 1 .. S/2 - 1, unscaled, float[T, K] (a row a
-    trajectory: each FFT runs along contiguous memory)."""
+    ``S_ff``, ``S_fN`` on the bins k = 1 .. S/2 - 1, unscaled, float[T, K] (complex for
+    ``fn``).
 
-    def __init__(self, plan: Plan) -> None:
+    Each column of a segment (a trajectory's N/F_s - 1, a realisation's g) is windowed
+    into a row of one buffer (:func:`~hertzsweep.kernels.welch.windowed`) and transformed
+    alone (:class:`~.spectrum.RealRows`: FFTW when pyfftw is installed, else numpy.fft),
+    so that a trajectory's spectrum is the same bit for bit whatever the number of
+    trajectories. The forcing's spectrum is formed once a realisation and segment, in the
+    buffer's first R rows, and shared by every level; the trajectories follow,
+    :data:`WELCH_BLOCK` at a time, in the rows after them
+    (:func:`~hertzsweep.kernels.welch.add_spectra`)."""
+
+    def __init__(self, plan: Plan, backend: str | None = None) -> None:
         s = plan.segment_steps
         self.window = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(s) / s)  # periodic Hann
         self.bins = slice(1, s // 2)  # inside (0, Nyquist)
@@ -292,22 +308,35 @@ class Welch:
         self.segments = 0
         # one-sided, per unit w: 2 (one side) h / (2 pi sum w^2) times |X|^2
         self.scale = plan.h / (math.pi * float(np.sum(self.window**2)))
-
-    def _spectrum(self, x: np.ndarray) -> np.ndarray:
-        """The rFFT bins of each column of x (float[S, n]), its mean removed,
-        Hann-windowed: complex[n, K]."""
-        rows = np.ascontiguousarray(x.T)
-        rows -= rows.mean(axis=1, keepdims=True)
-        rows *= self.window
-        return np.fft.rfft(rows, axis=1)[:, self.bins]
+        self._realisations = plan.realisations
+        self._block = min(WELCH_BLOCK, plan.trajectories)
+        self._rows = spectrum.RealRows(plan.realisations + self._block, s, backend)
+        self._means = np.zeros(max(plan.trajectories, plan.realisations))
 
     def add(self, excess: np.ndarray, g: np.ndarray, drive: kernels.RandomDrive) -> None:
         """One segment: ``excess`` float[S, T] (N/F_s - 1), ``g`` float[S, R]."""
-        response = self._spectrum(excess)
-        force = self._spectrum(g)[drive.realisation] * drive.level[:, None]
-        self.nn += response.real**2 + response.imag**2
-        self.ff += force.real**2 + force.imag**2
-        self.fn += np.conj(force) * response
+        rows, window, realisations = self._rows, self.window, self._realisations
+        steps, trajectories = self.window.size, self.nn.shape[0]
+        if excess.shape != (steps, trajectories) or g.shape != (steps, realisations):
+            raise ValueError(
+                f"expected excess float[{steps}, {trajectories}] and g float[{steps}, "
+                f"{realisations}], got {list(excess.shape)} and {list(g.shape)}"
+            )
+        welch_kernels.column_means(g, self._means[:realisations])
+        for first in range(0, realisations, self._block):
+            width = min(self._block, realisations - first)
+            welch_kernels.windowed(g, (first, width), self._means, window, rows.samples[first:])
+        rows.transform(0, realisations)
+        force, response = rows.spectra[:realisations], rows.spectra[realisations:]
+        sums = (self.nn, self.ff, self.fn)
+        welch_kernels.column_means(excess, self._means[:trajectories])
+        for first in range(0, trajectories, self._block):
+            width = min(self._block, trajectories - first)
+            welch_kernels.windowed(
+                excess, (first, width), self._means, window, rows.samples[realisations:]
+            )
+            rows.transform(realisations, realisations + width)
+            welch_kernels.add_spectra(response, force, drive, (first, width), sums)
         self.segments += 1
 
 
