@@ -254,6 +254,51 @@ def test_welch_normalisation_is_parseval():
     assert welch.scale * welch.nn.sum() * dw == pytest.approx(amplitude**2 / 2, rel=1e-12)
 
 
+@pytest.mark.parametrize("backend", ["pyfftw", "numpy"])
+def test_welch_sums_are_numpys_and_each_trajectorys_own(backend, monkeypatch):
+    # two segments of 2 levels x 3 realisations (in blocks of 4 and 2): the sums against
+    # numpy's (each column's mean removed, periodic Hann, numpy.fft.rfft; the force of a
+    # realisation times its level) to 1e-12 of their largest value, and each trajectory's
+    # sums bit for bit those of the trajectory alone (a Welch of one level and one
+    # realisation)
+    if backend == "pyfftw":
+        pytest.importorskip("pyfftw")
+    monkeypatch.setattr(driver, "WELCH_BLOCK", 4)
+    plan = driver.Plan.of(
+        random_scene([0.05, 0.2], segment=8, duration=16, transient=0, realisations=3)
+    )
+    s, r = plan.segment_steps, plan.realisations
+    level, realisation = np.repeat(plan.rms, r), np.tile(np.arange(r), plan.rms.size)
+    rng = np.random.default_rng(7)
+    segments = [
+        (1e-3 + 0.1 * rng.standard_normal((s, level.size)), rng.standard_normal((s, r)))
+        for _ in range(2)
+    ]
+    welch = driver.Welch(plan, backend)
+    for excess, g in segments:
+        welch.add(excess, g, kernels.inputs(level, realisation, plan.steps_per_period))
+    window = 0.5 - 0.5 * np.cos(2 * math.pi * np.arange(s) / s)
+
+    def bins(x):
+        return np.fft.rfft((x - x.mean(axis=0)) * window[:, None], axis=0)[1 : s // 2].T
+
+    nn, ff, fn = 0.0, 0.0, 0.0
+    for excess, g in segments:
+        response, force = bins(excess), bins(g)[realisation] * level[:, None]
+        nn, ff, fn = nn + abs(response) ** 2, ff + abs(force) ** 2, fn + force.conj() * response
+    for mine, reference in ((welch.nn, nn), (welch.ff, ff), (welch.fn, fn)):
+        assert np.abs(mine - reference).max() <= 1e-12 * np.abs(reference).max()
+    one = driver.Plan.of(random_scene([0.2], segment=8, duration=16, transient=0, realisations=1))
+    for t in range(level.size):
+        alone = driver.Welch(one, backend)
+        drive = kernels.inputs(level[t : t + 1], np.array([0]), plan.steps_per_period)
+        for excess, g in segments:
+            column = realisation[t]
+            alone.add(excess[:, t : t + 1], g[:, column : column + 1], drive)
+        for name in ("nn", "ff", "fn"):
+            assert np.array_equal(getattr(alone, name)[0], getattr(welch, name)[t]), name
+
+
 def test_psd_is_the_linear_response(broadband, resolved):
     # psd against |H|^2 S_f within 3 standard errors at all but 1 % of the band's bins.
     # The band's bins: those whose Hann main lobe (2 bins either side) lies inside the band

@@ -48,6 +48,8 @@ QUAD_LIMIT = 500
 # Relative accuracy asked of quad: far below the 3 standard errors (a few percent) the
 # variance is compared with in the tests of the random run.
 QUAD_RELATIVE_TOLERANCE = 1e-10
+# numpy.fft.irfft writes into a given array from numpy 2.0 on
+IRFFT_OUT = int(np.__version__.split(".")[0]) >= 2
 
 
 def band_lines(band: tuple[float, float], periods: int) -> np.ndarray:
@@ -118,6 +120,7 @@ def unit_forcing(
     periods: int,
     steps_per_period: int,
     per_step: int = 1,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """The unit-variance process g of realisation ``realisation``, sampled over its record.
 
@@ -136,6 +139,11 @@ def unit_forcing(
     per_step : int
         m, samples a step: 1 (the steps) or 2 (the steps and the half steps of rk4); any
         whole number >= 1.
+    out : numpy.ndarray, optional
+        float64[m N P'], where the inverse FFT writes the process's whole period (numpy
+        >= 2; an older numpy's result is copied into it), so that a caller making many
+        realisations reuses one buffer; the samples returned are then a view of its
+        first m N P. The same numbers either way.
 
     Returns
     -------
@@ -168,7 +176,16 @@ def unit_forcing(
     k, a, b = coefficients(seed, realisation, band, period)
     spectrum = np.zeros(length // 2 + 1, dtype=np.complex128)
     spectrum[k] = (length / 2.0) * (a - 1j * b)
-    return np.fft.irfft(spectrum, length)[: per_step * steps_per_period * periods]
+    record = per_step * steps_per_period * periods
+    if out is None:
+        return np.fft.irfft(spectrum, length)[:record]
+    if out.shape != (length,) or out.dtype != np.float64:
+        raise ValueError(f"out must be float64[{length}], got {out.dtype}{list(out.shape)}")
+    if IRFFT_OUT:
+        np.fft.irfft(spectrum, length, out=out)
+    else:
+        out[:] = np.fft.irfft(spectrum, length)
+    return out[:record]
 
 
 def process_periods(periods: int) -> int:

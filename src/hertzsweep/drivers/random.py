@@ -13,12 +13,15 @@ segments are discarded; each measured one adds to the running tallies (moments, 
 contact loss, flights, histogram) and, when whole, to the Welch sums of its trajectory, so
 that neither the buffers nor the statistics grow with ``duration_periods``; the forcing
 table does (a float a sample and realisation, at the steps and for rk4 the half steps
-too: each realisation's process is one inverse FFT over the whole record,
-:func:`forcing_table`). The first ``trace_periods`` measured periods of realisation 0 of
-every level are kept as they were recorded (N/F_s and f at the steps).
+too: each realisation's process is one inverse FFT over the whole record, made
+:data:`FORCING_THREADS` realisations at a time, :func:`forcing_table`). The first
+``trace_periods`` measured periods of realisation 0 of every level are kept as they were
+recorded (N/F_s and f at the steps).
 
 Welch: each whole measured segment of N/F_s and of f, its mean removed, times a periodic
-Hann window, one real FFT each (numpy); the segments are contiguous (no overlap). The
+Hann window, one real FFT each (:class:`Welch`: FFTW when pyfftw is installed, else numpy;
+a trajectory's alone, so that its spectra do not depend on how many trajectories run; f's
+once a realisation, shared by the levels); the segments are contiguous (no overlap). The
 one-sided PSD per unit w is ``h |X_k|^2 / (pi sum w_n^2)`` at ``w_k = k / segment_periods``
 (h = 2 pi / N in tau, in which w is the circular frequency), so that the PSD summed over
 every bin times ``1 / segment_periods`` is the windowed segment's mean square
@@ -33,19 +36,29 @@ realisations have a value, e.g. the mean flight of realisations without flights)
 from __future__ import annotations
 
 import math
+import os
+import threading
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..core.config import Scene
-from ..core.excitation import linear_response_variance, transmissibility, unit_forcing
+from ..core.excitation import (
+    linear_response_variance,
+    process_periods,
+    transmissibility,
+    unit_forcing,
+)
 from ..core.rig import derive
 from ..errors import HertzsweepError, Interrupted
 from ..kernels import random as kernels
 from ..kernels import scheme
+from ..kernels import welch as welch_kernels
 from ..kernels.stop import REQUEST
+from . import spectrum
 from .oscillator import model_law
 
 Progress = Callable[[int], None]
@@ -70,6 +83,11 @@ SCALARS = (  # per level: the statistics of N/F_s and of the flights
 SPECTRA = ("psd", "excitation_psd", "frf_amplitude", "frf_phase", "coherence")  # per bin
 STATISTICS = SPECTRA + ("force_pdf",) + SCALARS  # every statistic, each with its stderr
 BALL_STATISTICS = ("ball_flight_fraction",)  # the ball model's own, per level
+FORCING_THREADS = 2  # realisations made at a time at most (and at most the cores): each
+# holds its spectrum, numpy's work copy and its thread's buffer, 3 floats a sample
+WELCH_BLOCK = 32  # trajectories windowed, transformed and summed at a time: their rows
+# (S + 2 floats each, 4 MiB in all at S = 16384) are written by one pass over the
+# segment's columns (fewer passes over a wide segment than with blocks of 8, measured)
 
 
 @dataclass(frozen=True)
@@ -228,14 +246,37 @@ def forcing_table(plan: Plan) -> np.ndarray:
     """The unit forcing of every realisation at every sample of the record:
     float[m L (+1), R] for L steps and m = ``plan.per_step`` samples a step (C order: a
     sample's row holds every realisation). With m > 1 a last row repeats the first: the
-    process's period is the record, so the end of the last step is its start again."""
+    process's period is the record, so the end of the last step is its start again.
+
+    Each realisation is :func:`~hertzsweep.core.excitation.unit_forcing` (its inverse FFT
+    written into a buffer of the process's length that its thread keeps, then its first
+    m L samples into the realisation's column), :data:`FORCING_THREADS` realisations at
+    a time (numpy's FFT releases the GIL): the same numbers as one at a time."""
     m = plan.per_step
     length = m * plan.periods * plan.steps_per_period
+    process = m * process_periods(plan.periods) * plan.steps_per_period
     table = np.empty((length + (m > 1), plan.realisations))
-    for r in range(plan.realisations):
+    buffers = threading.local()
+
+    def column(r: int) -> None:
+        samples = getattr(buffers, "samples", None)
+        if samples is None:
+            samples = buffers.samples = np.empty(process)
         table[:length, r] = unit_forcing(
-            plan.seed, r, plan.band, plan.periods, plan.steps_per_period, per_step=m
+            plan.seed, r, plan.band, plan.periods, plan.steps_per_period, m, out=samples
         )
+
+    workers = min(FORCING_THREADS, os.cpu_count() or 1, plan.realisations)
+    if workers > 1:
+        pool = ThreadPoolExecutor(workers, thread_name_prefix="hertzsweep-forcing")
+        try:
+            for _ in pool.map(column, range(plan.realisations)):
+                pass
+        finally:  # on an interrupt, the realisations not begun are not made
+            pool.shutdown(wait=True, cancel_futures=True)
+    else:
+        for r in range(plan.realisations):
+            column(r)
     if m > 1:
         table[length] = table[0]
     return table
@@ -244,10 +285,19 @@ def forcing_table(plan: Plan) -> np.ndarray:
 # --------------------------------------------------------------------------- the run
 class Welch:
     """The Welch sums of T trajectories over whole segments of S steps: ``S_NN``,
-    ``S_ff``, ``S_fN`` on the bins k = 1 .. S/2 - 1, unscaled, float[T, K] (a row a
-    trajectory: each FFT runs along contiguous memory)."""
+    ``S_ff``, ``S_fN`` on the bins k = 1 .. S/2 - 1, unscaled, float[T, K] (complex for
+    ``fn``).
 
-    def __init__(self, plan: Plan) -> None:
+    Each column of a segment (a trajectory's N/F_s - 1, a realisation's g) is windowed
+    into a row of one buffer (:func:`~hertzsweep.kernels.welch.windowed`) and transformed
+    alone (:class:`~.spectrum.RealRows`: FFTW when pyfftw is installed, else numpy.fft),
+    so that a trajectory's spectrum is the same bit for bit whatever the number of
+    trajectories. The forcing's spectrum is formed once a realisation and segment, in the
+    buffer's first R rows, and shared by every level; the trajectories follow,
+    :data:`WELCH_BLOCK` at a time, in the rows after them
+    (:func:`~hertzsweep.kernels.welch.add_spectra`)."""
+
+    def __init__(self, plan: Plan, backend: str | None = None) -> None:
         s = plan.segment_steps
         self.window = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(s) / s)  # periodic Hann
         self.bins = slice(1, s // 2)  # inside (0, Nyquist)
@@ -258,22 +308,35 @@ class Welch:
         self.segments = 0
         # one-sided, per unit w: 2 (one side) h / (2 pi sum w^2) times |X|^2
         self.scale = plan.h / (math.pi * float(np.sum(self.window**2)))
-
-    def _spectrum(self, x: np.ndarray) -> np.ndarray:
-        """The rFFT bins of each column of x (float[S, n]), its mean removed,
-        Hann-windowed: complex[n, K]."""
-        rows = np.ascontiguousarray(x.T)
-        rows -= rows.mean(axis=1, keepdims=True)
-        rows *= self.window
-        return np.fft.rfft(rows, axis=1)[:, self.bins]
+        self._realisations = plan.realisations
+        self._block = min(WELCH_BLOCK, plan.trajectories)
+        self._rows = spectrum.RealRows(plan.realisations + self._block, s, backend)
+        self._means = np.zeros(max(plan.trajectories, plan.realisations))
 
     def add(self, excess: np.ndarray, g: np.ndarray, drive: kernels.RandomDrive) -> None:
         """One segment: ``excess`` float[S, T] (N/F_s - 1), ``g`` float[S, R]."""
-        response = self._spectrum(excess)
-        force = self._spectrum(g)[drive.realisation] * drive.level[:, None]
-        self.nn += response.real**2 + response.imag**2
-        self.ff += force.real**2 + force.imag**2
-        self.fn += np.conj(force) * response
+        rows, window, realisations = self._rows, self.window, self._realisations
+        steps, trajectories = self.window.size, self.nn.shape[0]
+        if excess.shape != (steps, trajectories) or g.shape != (steps, realisations):
+            raise ValueError(
+                f"expected excess float[{steps}, {trajectories}] and g float[{steps}, "
+                f"{realisations}], got {list(excess.shape)} and {list(g.shape)}"
+            )
+        welch_kernels.column_means(g, self._means[:realisations])
+        for first in range(0, realisations, self._block):
+            width = min(self._block, realisations - first)
+            welch_kernels.windowed(g, (first, width), self._means, window, rows.samples[first:])
+        rows.transform(0, realisations)
+        force, response = rows.spectra[:realisations], rows.spectra[realisations:]
+        sums = (self.nn, self.ff, self.fn)
+        welch_kernels.column_means(excess, self._means[:trajectories])
+        for first in range(0, trajectories, self._block):
+            width = min(self._block, trajectories - first)
+            welch_kernels.windowed(
+                excess, (first, width), self._means, window, rows.samples[realisations:]
+            )
+            rows.transform(realisations, realisations + width)
+            welch_kernels.add_spectra(response, force, drive, (first, width), sums)
         self.segments += 1
 
 

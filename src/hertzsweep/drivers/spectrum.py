@@ -13,6 +13,9 @@ The transforms go through pyfftw (FFTW), planned with ``FFTW_ESTIMATE`` (no meas
 so planning a new length costs nothing and nothing is written to disk); a plan is kept
 per length for the life of the process (:func:`fftw_plan`). numpy.fft is used when
 pyfftw is not installed. pyfftw is imported only when a spectrum is first computed.
+
+:class:`RealRows` transforms the rows of one buffer (the random run's Welch segments)
+with one plan of the one-dimensional transform, a row at a time.
 """
 
 from __future__ import annotations
@@ -31,6 +34,8 @@ FFTW_FLAGS = ("FFTW_ESTIMATE",)  # a plan from heuristics: instant for any lengt
 # one real transform per record is small next to the integration that made the record
 FFTW_THREADS = 1  # one transform per record, small next to the integration: no threads
 CACHED_PLANS = 4  # lengths whose plan (and M + 2 doubles of buffer) a process keeps
+ROW_ALIGNMENT = 64  # bytes: where every row of a RealRows buffer starts (a cache line,
+# and FFTW's SIMD alignment)
 
 
 @dataclass(frozen=True)
@@ -54,6 +59,62 @@ def fftw_plan(samples: int) -> FFTWPlan:
     real = output.view("float64")[:samples]
     execute = pyfftw.FFTW(real, output, flags=FFTW_FLAGS, threads=FFTW_THREADS)
     return FFTWPlan(execute, real, output)
+
+
+class RealRows:
+    """Real FFTs of length M, in place, of the rows of one buffer, one row at a time.
+
+    Parameters
+    ----------
+    rows : int
+        The buffer's rows.
+    samples : int
+        M, the length of each row's transform.
+    backend : {"pyfftw", "numpy"}, optional
+        Default :data:`BACKEND`.
+
+    Notes
+    -----
+    A row's samples (``samples[i]``, float[M]) are the real view of its bins
+    (``spectra[i]``, complex[M/2 + 1]): :meth:`transform` overwrites them. With pyfftw
+    every row is transformed by one plan of the one-dimensional transform of length M
+    (:data:`FFTW_FLAGS`, made on row 0, executed on each row in turn: each row starts at
+    the same alignment, its length padded to :data:`ROW_ALIGNMENT` bytes), so that a
+    row's spectrum is the same bit for bit whatever the buffer's number of rows; numpy.fft
+    transforms row by row likewise.
+    """
+
+    def __init__(self, rows: int, samples: int, backend: str | None = None) -> None:
+        self.backend = backend or BACKEND
+        if self.backend not in BACKENDS:
+            raise ValueError(f"backend must be 'pyfftw' or 'numpy', got {self.backend!r}")
+        if self.backend == "pyfftw" and BACKEND != "pyfftw":
+            raise ValueError("backend 'pyfftw' requested but pyfftw is not installed")
+        bins = samples // 2 + 1
+        per_row = ROW_ALIGNMENT // 16  # complex values in ROW_ALIGNMENT bytes
+        shape = (rows, -(-bins // per_row) * per_row)
+        if self.backend == "pyfftw":
+            pyfftw = _import_pyfftw()
+            buffer = pyfftw.empty_aligned(shape, dtype="complex128", n=ROW_ALIGNMENT)
+            buffer[:] = 0.0
+        else:
+            buffer = np.zeros(shape, dtype=complex)
+        self.samples = buffer.view("float64")[:, :samples]
+        self.spectra = buffer[:, :bins]
+        self._plan = None
+        if self.backend == "pyfftw" and rows > 0:
+            self._plan = pyfftw.FFTW(
+                self.samples[0], self.spectra[0], flags=FFTW_FLAGS, threads=FFTW_THREADS
+            )
+
+    def transform(self, first: int, stop: int) -> None:
+        """Rows ``first .. stop - 1``: their samples replaced by their bins."""
+        for row in range(first, stop):
+            if self._plan is None:
+                self.spectra[row] = np.fft.rfft(self.samples[row])
+            else:
+                self._plan.update_arrays(self.samples[row], self.spectra[row])
+                self._plan.execute()
 
 
 def _import_pyfftw() -> Any:
@@ -169,6 +230,7 @@ __all__ = [
     "BACKEND",
     "AmplitudeSpectrum",
     "FFTWPlan",
+    "RealRows",
     "amplitude_spectrum",
     "fftw_plan",
     "harmonic_orders",
