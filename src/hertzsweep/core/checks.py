@@ -444,9 +444,11 @@ PEAK_FACTOR = 10.0
 # The damping ratio the force estimate is floored at, as model.force_bound floors it: below
 # it the linear resonance grows beyond what a finite record reaches.
 ZETA_FLOOR = 1e-3
-# Floats held per sample of the realisation whose forcing is being generated: its complex
+# Floats held per sample of a realisation whose forcing is being generated: its complex
 # spectrum (2 floats per 2 samples), the inverse FFT's output and its work copy.
 FORCING_WORKSPACE = 3
+FORCING_THREADS = 2  # realisations whose forcing is made at once, each in its own thread
+# (hertzsweep.drivers.random.forcing_table; numpy's FFT releases the GIL), at most the cores
 # Per sample of a Welch segment and trajectory: N/F_s, its windowed copy and its rFFT
 # (half as many complex bins); per sample and realisation, the same for the forcing.
 SEGMENT_FLOATS = 3
@@ -612,7 +614,7 @@ def random_memory_terms(scene: Scene) -> list[tuple[int, str, dict[str, tuple[fl
     record = samples_per_step(scene) * steps * record_periods(scene)  # samples a realisation
     segment = random.segment_periods * steps  # samples a Welch segment
     bins = segment // 2 + 1  # its rFFT's bins (and the frequency coordinates, 2 a bin)
-    forcing = (realisations + FORCING_WORKSPACE) * record
+    forcing = (realisations + FORCING_WORKSPACE * min(FORCING_THREADS, realisations)) * record
     buffers = SEGMENT_FLOATS * segment * (trajectories + realisations)
     spectra = (BIN_ACCUMULATORS * trajectories + RESULT_COPIES * (BIN_RESULTS * levels + 2)) * bins
     histograms = (trajectories + RESULT_COPIES * (2 * levels + 1)) * random.force_bins

@@ -14,9 +14,9 @@ contact loss, flights, histogram) and, when whole, to the Welch sums of its traj
 that neither the buffers nor the statistics grow with ``duration_periods``; the forcing
 table does (a float a sample and realisation, at the steps and for rk4 the half steps
 too: each realisation's process is one inverse FFT over the whole record, made
-:data:`FORCING_THREADS` realisations at a time, :func:`forcing_table`). The first
-``trace_periods`` measured periods of realisation 0 of every level are kept as they were
-recorded (N/F_s and f at the steps).
+:data:`~hertzsweep.core.checks.FORCING_THREADS` realisations at a time,
+:func:`forcing_table`). The first ``trace_periods`` measured periods of realisation 0 of
+every level are kept as they were recorded (N/F_s and f at the steps).
 
 Welch: each whole measured segment of N/F_s and of f, its mean removed, times a periodic
 Hann window, one real FFT each (:class:`Welch`: FFTW when pyfftw is installed, else numpy;
@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.checks import FORCING_THREADS
 from ..core.config import Scene
 from ..core.excitation import (
     linear_response_variance,
@@ -83,8 +84,6 @@ SCALARS = (  # per level: the statistics of N/F_s and of the flights
 SPECTRA = ("psd", "excitation_psd", "frf_amplitude", "frf_phase", "coherence")  # per bin
 STATISTICS = SPECTRA + ("force_pdf",) + SCALARS  # every statistic, each with its stderr
 BALL_STATISTICS = ("ball_flight_fraction",)  # the ball model's own, per level
-FORCING_THREADS = 2  # realisations made at a time at most (and at most the cores): each
-# holds its spectrum, numpy's work copy and its thread's buffer, 3 floats a sample
 WELCH_BLOCK = 32  # trajectories windowed, transformed and summed at a time: their rows
 # (S + 2 floats each, 4 MiB in all at S = 16384) are written by one pass over the
 # segment's columns (fewer passes over a wide segment than with blocks of 8, measured)
@@ -250,8 +249,9 @@ def forcing_table(plan: Plan) -> np.ndarray:
 
     Each realisation is :func:`~hertzsweep.core.excitation.unit_forcing` (its inverse FFT
     written into a buffer of the process's length that its thread keeps, then its first
-    m L samples into the realisation's column), :data:`FORCING_THREADS` realisations at
-    a time (numpy's FFT releases the GIL): the same numbers as one at a time."""
+    m L samples into the realisation's column),
+    :data:`~hertzsweep.core.checks.FORCING_THREADS` realisations at a time (numpy's FFT
+    releases the GIL): the same numbers as one at a time."""
     m = plan.per_step
     length = m * plan.periods * plan.steps_per_period
     process = m * process_periods(plan.periods) * plan.steps_per_period
