@@ -19,9 +19,10 @@ Every ratio is measured in the same run, never typed in:
   1e-4, and within 1e-6, of a converged reference;
 - shooting-accelerated vs settled sweep (steps and time, the same jumps);
 - random excitation (:func:`random_figures`): ns per realisation-step of a random run of 16
-  realisations in lockstep (forcing, tallies and Welch spectra included; and of its
-  compiled steps alone), against the lockstep sweep's trajectory-step of 16 trajectories
-  measured in the same run; and the wall time of the paper's random scene.
+  realisations in lockstep (forcing, tallies and Welch spectra included), of its compiled
+  steps with their tallies, of the steps alone, of the forcing and of the Welch sums,
+  against the lockstep sweep's trajectory-step of 16 trajectories measured in the same
+  run; and the wall time of the paper's random scene.
 """
 
 from __future__ import annotations
@@ -869,10 +870,11 @@ def random_costs(scene: Scene, repeats: int = 3) -> dict[str, float]:
 def random_figures(lockstep_ns: float, quick: bool = False) -> dict[str, Any]:
     """The random run's figures: ns per realisation-step of :data:`RANDOM_LOCKSTEP`
     realisations of one level (rms 1 %, zeta 1 % and 256 steps per period as the lockstep
-    sweep's; 2200 periods, 440 in quick mode), of the whole run and of its compiled steps
-    alone, each over ``lockstep_ns`` (the lockstep sweep's ns per trajectory-step of as
-    many trajectories, measured in the same run; the issue's bound: 1.5), and the forcing
-    table's part (:func:`random_costs`); and the wall time [s] of the paper scene's run
+    sweep's; 2200 periods, 440 in quick mode), of the whole run, of its compiled steps
+    with their tallies and of the steps alone, each over ``lockstep_ns`` (the lockstep
+    sweep's ns per trajectory-step of as many trajectories, measured in the same run; the
+    issue's bound: 1.5), and the forcing table's and the Welch sums' parts
+    (:func:`random_costs`); and the wall time [s] of the paper scene's run
     (:func:`paper_random_scene`, best of 2, once in quick mode; kernels loaded beforehand,
     the forcing's generation included: the issue's bound 10 s) and its trajectory-steps."""
     from .random import run_random
@@ -886,6 +888,8 @@ def random_figures(lockstep_ns: float, quick: bool = False) -> dict[str, Any]:
         "random_compiled_ns_per_trajectory_step": costs["compiled_ns_per_trajectory_step"],
         "random_compiled_ratio_to_lockstep": costs["compiled_ns_per_trajectory_step"] / lockstep_ns,
         "random_untallied_ns_per_trajectory_step": costs["untallied_ns_per_trajectory_step"],
+        "random_untallied_ratio_to_lockstep": costs["untallied_ns_per_trajectory_step"]
+        / lockstep_ns,
         "random_forcing_ns_per_trajectory_step": costs["forcing_ns_per_trajectory_step"],
         "random_welch_ns_per_trajectory_step": costs["welch_ns_per_trajectory_step"],
     }
