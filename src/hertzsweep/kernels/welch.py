@@ -9,8 +9,6 @@ there are); :func:`add_spectra` adds a block of the trajectories' spectra ``X`` 
 sums ``S_NN``, ``S_ff`` and ``S_fN`` with the force ``F = level G`` of their realisation
 (G its spectrum).
 
-The mean is numpy's bit for bit (``numpy.mean`` of the column made contiguous: its
-pairwise summation, then divided by S), and so is the windowed row ``(x - mean) w``;
 ``|X|^2`` is ``re^2 + im^2`` and ``conj(F) X`` is ``(a c - b d, a d + b c)`` for ``conj(F)
 = a + i b``, ``X = c + i d`` (numpy's complex product may fuse its multiply-adds: the
 same to round-off).
@@ -23,85 +21,18 @@ from numba import njit
 
 from . import CACHE
 
-PAIRWISE_BLOCK = 128  # numpy's PW_BLOCKSIZE: a run of up to this many values is summed
-UNROLL = 8  # ... with this many partial sums (below it, one)
-MAX_DEPTH = 64  # halvings of a run: more than any array's length allows
-
-
-@njit(cache=CACHE, error_model="numpy")
-def _run_sums(x, first, count, partial, out):
-    """``out[c]`` = the sum of ``x[first : first + count, c]`` for every column c (count
-    <= 128) as numpy sums a run of doubles: one sum from 0 below 8 values, else 8 partial
-    sums (``partial`` float[8, n]) over the whole groups of 8, added pairwise, then the
-    rest one by one."""
-    columns = x.shape[1]
-    if count < UNROLL:
-        out[:] = 0.0
-        for i in range(first, first + count):
-            row = x[i]
-            for c in range(columns):
-                out[c] += row[c]
-        return
-    for r in range(UNROLL):
-        partial[r, :] = x[first + r]
-    grouped = count - count % UNROLL
-    for i in range(first + UNROLL, first + grouped, UNROLL):
-        for r in range(UNROLL):
-            row = x[i + r]
-            sums = partial[r]
-            for c in range(columns):
-                sums[c] += row[c]
-    for c in range(columns):
-        out[c] = ((partial[0, c] + partial[1, c]) + (partial[2, c] + partial[3, c])) + (
-            (partial[4, c] + partial[5, c]) + (partial[6, c] + partial[7, c])
-        )
-    for i in range(first + grouped, first + count):
-        row = x[i]
-        for c in range(columns):
-            out[c] += row[c]
-
 
 @njit(cache=CACHE, error_model="numpy", nogil=True)
 def column_means(x, out):
-    """``out[c]`` = the mean of column c of x (float[S, n]) as numpy's ``mean`` of the
-    column made contiguous: numpy's pairwise sum (a run of up to 128 values by
-    :func:`_run_sums`, a longer one as the sum of its two halves, the first a multiple of
-    8 long, summed apart), divided by S. Every column at once, row by row. numpy
-    recurses; here the recursion is a stack (a cached numba function may not call
-    itself)."""
+    """``out[c]`` = the mean of column c of x (float[S, n]): the values summed in step
+    order, every column at once (a row at a time, vectorised across the columns), then
+    divided by S. A column's mean does not depend on the other columns."""
+    out[:] = 0.0
     columns = x.shape[1]
-    first = np.zeros(MAX_DEPTH, dtype=np.int64)
-    count = np.zeros(MAX_DEPTH, dtype=np.int64)
-    second = np.zeros(MAX_DEPTH, dtype=np.bool_)  # the run's first half is summed
-    left = np.empty((MAX_DEPTH, columns))  # ... to this
-    partial = np.empty((UNROLL, columns))
-    count[0] = x.shape[0]
-    depth = 0
-    while True:
-        n = count[depth]
-        if n > PAIRWISE_BLOCK:  # its first half first
-            half = n // 2
-            half -= half % UNROLL
-            second[depth] = False
-            depth += 1
-            first[depth] = first[depth - 1]
-            count[depth] = half
-            continue
-        _run_sums(x, first[depth], n, partial, out)
-        while depth > 0:  # hand the run's sums to the runs that hold it
-            depth -= 1
-            if not second[depth]:  # its first half is done: the second half next
-                left[depth] = out
-                second[depth] = True
-                half = count[depth + 1]
-                depth += 1
-                first[depth] = first[depth - 1] + half
-                count[depth] = count[depth - 1] - half
-                break
-            for c in range(columns):
-                out[c] = left[depth, c] + out[c]
-        else:
-            break
+    for i in range(x.shape[0]):
+        row = x[i]
+        for c in range(columns):
+            out[c] += row[c]
     for c in range(columns):
         out[c] /= x.shape[0]
 
