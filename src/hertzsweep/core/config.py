@@ -188,6 +188,7 @@ class RandomConfig:
     segment_periods: int = 64
     force_bins: int = 200
     trace_periods: int = 0
+    first_realisation: int = 0
 
 
 @dataclass(frozen=True)
@@ -582,6 +583,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "segment_periods": _positive_int,
         "force_bins": _bin_count,
         "trace_periods": _non_negative_int,
+        "first_realisation": _non_negative_int,
     },
     "branch": {"follow_period_doubling": _boolean},
 }
@@ -609,6 +611,7 @@ QUIET_DEFAULTS: dict[tuple[str, str], Any] = {
     ("sweep", "period_multiple"): 1,
     ("branch", "follow_period_doubling"): False,
     ("sweep", "initial_state"): None,  # unset: at rest
+    ("random", "first_realisation"): 0,
 }
 QUIET_TABLES = ("branch",)
 # What each key of SCHEMA sets, one line each ([unit] first where it has one): the manual's
@@ -678,6 +681,9 @@ DESCRIPTIONS: dict[str, str] = {
     "random.force_bins": "bins of the histogram of N/F_s (force_pdf)",
     "random.trace_periods": "periods of time history kept from the first realisation's start "
     "(0: none)",
+    "random.first_realisation": "the run's realisation r uses the forcing stream of realisation "
+    "first_realisation + r: a run of realisations first .. first + realisations - 1 of a larger "
+    "one (a study's split_realisations runs its groups so)",
 }
 
 

@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import os
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -127,6 +127,9 @@ class RandomResult:
         past an interrupted run's last step); M = 0 without a trace.
     trace_tau : float[M]
         Their tau from the first measured step (``j h``).
+    sums : Sums, optional
+        What the statistics were formed from (every trajectory's tallies and Welch sums):
+        :func:`merge` joins those of runs of consecutive realisations into one run's.
     """
 
     rms: np.ndarray
@@ -144,6 +147,7 @@ class RandomResult:
     trace_force: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     trace_forcing: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     trace_tau: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    sums: Sums | None = field(default=None, repr=False, compare=False)
 
 
 # --------------------------------------------------------------------------- the plan
@@ -165,6 +169,7 @@ class Plan:
     seed: int
     per_step: int = 1
     trace_steps: int = 0
+    first_realisation: int = 0
 
     @classmethod
     def of(cls, scene: Scene) -> Plan:
@@ -186,6 +191,7 @@ class Plan:
             seed=int(scene.excitation.seed),
             per_step=kernel(scene).per_step,
             trace_steps=int(run.trace_periods) * n,
+            first_realisation=int(run.first_realisation),
         )
 
     @property
@@ -247,9 +253,11 @@ def forcing_table(plan: Plan) -> np.ndarray:
     sample's row holds every realisation). With m > 1 a last row repeats the first: the
     process's period is the record, so the end of the last step is its start again.
 
-    Each realisation is :func:`~hertzsweep.core.excitation.unit_forcing` (its inverse FFT
-    written into a buffer of the process's length that its thread keeps, then its first
-    m L samples into the realisation's column),
+    The run's realisation r is the process's realisation ``first_realisation + r``
+    (``random.first_realisation``), each
+    :func:`~hertzsweep.core.excitation.unit_forcing` (its inverse FFT written into a
+    buffer of the process's length that its thread keeps, then its first m L samples into
+    the realisation's column),
     :data:`~hertzsweep.core.checks.FORCING_THREADS` realisations at a time (numpy's FFT
     releases the GIL): the same numbers as one at a time."""
     m = plan.per_step
@@ -262,8 +270,9 @@ def forcing_table(plan: Plan) -> np.ndarray:
         samples = getattr(buffers, "samples", None)
         if samples is None:
             samples = buffers.samples = np.empty(process)
+        stream = plan.first_realisation + r  # the run's realisation r
         table[:length, r] = unit_forcing(
-            plan.seed, r, plan.band, plan.periods, plan.steps_per_period, m, out=samples
+            plan.seed, stream, plan.band, plan.periods, plan.steps_per_period, m, out=samples
         )
 
     workers = min(FORCING_THREADS, os.cpu_count() or 1, plan.realisations)
@@ -368,11 +377,12 @@ class Trace:
 class Sums:
     """What a run accumulates: the kernels' tallies, the Welch sums, the trace, the
     integration steps taken (every trajectory's) and, for the ball model, the measured
-    steps with both contacts open (float[T]); kept when the run is interrupted."""
+    steps with both contacts open (float[T]); kept when the run is interrupted. A result
+    keeps them as plain arrays (:class:`WelchSums`, :class:`TraceRows`)."""
 
     tally: kernels.Tally
-    welch: Welch
-    trace: Trace
+    welch: Welch | WelchSums
+    trace: Trace | TraceRows
     steps: int = 0
     ball_flight: np.ndarray | None = None
 
@@ -467,7 +477,7 @@ def _raise(status: int, bad: int, plan: Plan, scene: Scene) -> None:
         interrupt.signal_number = int(REQUEST[0]) or 2  # SIGINT when not known
         raise interrupt
     level, realisation = divmod(bad, plan.realisations)
-    where = f"rms = {plan.rms[level]:g}, realisation {realisation}"
+    where = f"rms = {plan.rms[level]:g}, realisation {plan.first_realisation + realisation}"
     error, _ = scheme.STATUS[status]
     if status == scheme.UNSTABLE:
         raise error(
@@ -599,7 +609,90 @@ def _result(plan: Plan, scene: Scene, sums: Sums, complete: bool) -> RandomResul
         trace_force=sums.trace.force,
         trace_forcing=sums.trace.forcing,
         trace_tau=np.arange(plan.trace_steps) * plan.h,
+        sums=Sums(  # plain arrays (a Welch's transforms stay behind)
+            tally,
+            WelchSums(welch.nn, welch.ff, welch.fn, welch.segments, welch.scale),
+            TraceRows(sums.trace.force, sums.trace.forcing),
+            sums.steps,
+            sums.ball_flight,
+        ),
     )
+
+
+@dataclass
+class WelchSums:
+    """The Welch sums of T trajectories, unscaled (:class:`Welch`'s ``nn``, ``ff``, ``fn``,
+    float[T, K], complex for ``fn``), over ``segments`` whole segments, and their scale."""
+
+    nn: np.ndarray
+    ff: np.ndarray
+    fn: np.ndarray
+    segments: int
+    scale: float
+
+
+@dataclass
+class TraceRows:
+    """A trace's rows (:class:`Trace`'s ``force`` and ``forcing``, float[L, M])."""
+
+    force: np.ndarray
+    forcing: np.ndarray
+
+
+def merge(scene: Scene, groups: Sequence[Sums], complete: bool = True) -> RandomResult:
+    """The result of ``scene``'s run from the sums of runs of groups of its realisations:
+    those of ``scene`` with ``random.first_realisation`` and ``random.realisations`` set to
+    each group's, the groups consecutive and in order from realisation 0 (the scene's
+    ``first_realisation``). A realisation's trajectories are their own (its stream, its
+    steps, its tallies, its Welch sums alone), so the sums joined trajectory by trajectory
+    are those of one run of every realisation, and the statistics are formed from them as
+    that run forms them (:func:`_result`): the same numbers, bit for bit. The trace is the
+    first group's (realisation 0), the steps add up.
+
+    Raises
+    ------
+    ValueError
+        The groups' realisations are not the scene's, or their levels, bins or measured
+        segments differ.
+    """
+    plan = Plan.of(scene)
+    levels = plan.rms.size
+    if not groups or levels == 0:
+        raise ValueError("no group of realisations to merge")
+    counts = [g.tally.sums.shape[-1] // levels for g in groups]
+    if sum(counts) != plan.realisations:
+        raise ValueError(f"groups of {counts} realisations, not {plan.realisations}")
+    if len({g.welch.segments for g in groups}) != 1:
+        raise ValueError("groups of realisations of different measured segments")
+
+    def joined(arrays: list[np.ndarray]) -> np.ndarray:
+        """[..., T] of each group (level outer) as [..., T] of the whole run."""
+        parts = [a.reshape(a.shape[:-1] + (levels, n)) for a, n in zip(arrays, counts, strict=True)]
+        whole = np.concatenate(parts, axis=-1)
+        return np.ascontiguousarray(whole.reshape(whole.shape[:-2] + (-1,)))
+
+    def rows(arrays: list[np.ndarray]) -> np.ndarray:
+        """[T, K] of each group as [T, K] of the whole run."""
+        return np.ascontiguousarray(joined([a.T for a in arrays]).T)
+
+    first = groups[0]
+    tally = kernels.Tally(
+        joined([g.tally.sums for g in groups]),
+        joined([g.tally.histogram for g in groups]),
+        joined([g.tally.low for g in groups]),
+        joined([g.tally.width for g in groups]),
+    )
+    welch = WelchSums(
+        rows([g.welch.nn for g in groups]),
+        rows([g.welch.ff for g in groups]),
+        rows([g.welch.fn for g in groups]),
+        first.welch.segments,
+        first.welch.scale,
+    )
+    flights = [g.ball_flight for g in groups]
+    ball_flight = None if any(f is None for f in flights) else joined(flights)
+    whole = Sums(tally, welch, first.trace, sum(g.steps for g in groups), ball_flight)
+    return _result(plan, scene, whole, complete)
 
 
 def linear_psd(result: RandomResult, zeta: float) -> np.ndarray:
@@ -612,4 +705,4 @@ def linear_psd(result: RandomResult, zeta: float) -> np.ndarray:
     return result.rms[:, None] ** 2 * power[None, :]
 
 
-__all__ = ["RandomResult", "kernel", "linear_psd", "run_random", "step_count"]
+__all__ = ["RandomResult", "Sums", "kernel", "linear_psd", "merge", "run_random", "step_count"]

@@ -23,8 +23,14 @@ so a level's realisations give the same numbers alone as among the other levels:
 study's spectra and statistics are those of one run of every level, bit for bit, except
 the histogram (``force_pdf``): a run's bins span its largest level, so a split case's
 span its own level (those of a run of that level alone). A grid over ``excitation.seed``
-changes the streams (a new sample of the process); the realisations of one level are not
-split (they run in lockstep in one case).
+changes the streams (a new sample of the process). The realisations of a case run in
+lockstep in one case, unless ``split_realisations = G`` (a whole number, at most the
+fewest ``random.realisations`` of any case): each case then runs as G sub-cases
+(:func:`sub_cases`), each a contiguous group of its realisations (sizes differing by at
+most one, ``random.first_realisation`` and ``random.realisations`` set), each an ordinary
+case of the engine (its own hash, part, resume, failure); their parts are merged into the
+case's dataset, bit for bit that of the unsplit case
+(:func:`hertzsweep.output.realisations.merged_part`).
 
 A case is identified by the sha256 of its resolved scene's canonical JSON
 (``Scene.attributes()`` and the kind, :func:`case_hash`). Cases run on an :class:`Engine`:
@@ -72,7 +78,9 @@ LEVEL_KEYS = {"sweep": SIGMA_KEY, "branch": SIGMA_KEY, "random": RMS_KEY}  # a k
 # the list-valued key a case's run takes whole (a dimension of its result)
 LEVEL_DIMS = {SIGMA_KEY: "sigma", RMS_KEY: "rms"}  # their dimensions, named as in the parts
 EXCITATION_OF = {"sweep": "sine", "branch": "sine", "random": "random"}  # a kind's scenes
-STUDY_KEYS = ("kind", "scene", "grid", "split_sigma", "split_rms")
+STUDY_KEYS = ("kind", "scene", "grid", "split_sigma", "split_rms", "split_realisations")
+REALISATIONS_KEY = "random.realisations"
+FIRST_REALISATION_KEY = "random.first_realisation"
 POLL_SECONDS = 0.2  # how often the driver looks at finished cases and stop requests
 QUEUE_PER_SLOT = 2  # cases in flight per worker slot: keeps workers busy, stops fast
 PRELOADED = (  # imported once by the local pool's fork server, inherited by every worker
@@ -112,6 +120,8 @@ class Study:
     split_sigma : every sigma of the grid its own case (default: all sigma in each case).
     split_rms : every rms level of a random study's grid its own case (default: all
         levels in each case).
+    split_realisations : a random study runs each case as this many sub-cases, each a
+        contiguous group of its realisations (default 1: all in one).
     """
 
     source: str
@@ -120,6 +130,7 @@ class Study:
     grid: tuple[GridAxis, ...]
     split_sigma: bool = False
     split_rms: bool = False
+    split_realisations: int = 1
 
     @property
     def level_key(self) -> str:
@@ -152,17 +163,27 @@ class Case:
     values : ``{dotted key: value}`` along those axes.
     scene : the resolved scene.
     hash : sha256 of the scene's canonical JSON and the kind (:func:`case_hash`).
+    whole : for a sub-case of a study's ``split_realisations`` (a group of the
+        realisations of a case, its scene's ``random.first_realisation`` and
+        ``random.realisations``), the case it is part of; None for a case.
     """
 
     index: tuple[int, ...]
     values: dict[str, Any]
     scene: Scene
     hash: str
+    whole: Case | None = None
 
     @property
     def label(self) -> str:
-        """``damping.exponent=0.5, ...`` (``base`` for the only case of an empty grid)."""
-        return grid_label(self.values) or "base"
+        """``damping.exponent=0.5, ...`` (``base`` for the only case of an empty grid);
+        a sub-case's adds its realisations (``realisations 5-9``)."""
+        label = grid_label(self.values) or "base"
+        if self.whole is None:
+            return label
+        run = self.scene.random
+        last = run.first_realisation + run.realisations - 1
+        return f"{label}, realisations {run.first_realisation}-{last}"
 
 
 def grid_label(values: dict[str, Any]) -> str:
@@ -216,6 +237,7 @@ def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
         if not isinstance(value, bool):
             raise ConfigError(source, name, f"expected true or false, got {value!r}")
     _check_levels(source, kind, split, raw.get("grid", {}))
+    groups = _split_realisations(source, kind, raw.pop("split_realisations", 1))
     grid_raw = raw.pop("grid", {})
     if not isinstance(grid_raw, dict):
         raise ConfigError(source, "grid", f"expected a table of key = [values], got {grid_raw!r}")
@@ -275,7 +297,74 @@ def load_study(path: str | os.PathLike, kinds: Collection[str]) -> Study:
     dims = [a.dim for a in grid]
     if len(set(dims)) != len(dims):
         raise ConfigError(source, "grid", f"two keys give the same dimension: {dims}")
-    return Study(source=source, kind=kind, base=base, grid=tuple(grid), **split)
+    _check_groups(source, groups, grid, scene)
+    return Study(source, kind, base, tuple(grid), split_realisations=groups, **split)
+
+
+def _check_groups(source: str, groups: int, grid: Sequence[GridAxis], scene: Scene) -> None:
+    """``split_realisations`` is at most the fewest ``random.realisations`` of any case
+    (the grid's, else the base scene's).
+
+    Raises
+    ------
+    ConfigError
+        Naming the study file and the key.
+    """
+    axis = next((a for a in grid if a.key == REALISATIONS_KEY), None)
+    fewest = min(axis.values) if axis is not None else scene.random.realisations
+    if groups > fewest:
+        reason = f"{groups} groups of realisations, but a case has only {fewest} realisations"
+        raise ConfigError(source, "split_realisations", reason)
+
+
+def _split_realisations(source: str, kind: str, value: Any) -> int:
+    """The study's ``split_realisations``: a whole number >= 1, other than 1 only in a
+    random study (the only kind with realisations).
+
+    Raises
+    ------
+    ConfigError
+        Naming the study file and the key.
+    """
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ConfigError(
+            source, "split_realisations", f"expected a whole number >= 1, got {value!r}"
+        )
+    if value != 1 and kind != "random":
+        reason = f"a {kind} study has no realisations to split (only a random study has)"
+        raise ConfigError(source, "split_realisations", reason)
+    return value
+
+
+def realisation_groups(realisations: int, groups: int) -> list[tuple[int, int]]:
+    """``(first, count)`` of ``groups`` contiguous groups of ``realisations``, in order,
+    their sizes differing by at most one, the larger first (16 in 3: 6, 5, 5)."""
+    size, extra = divmod(realisations, groups)
+    out, first = [], 0
+    for g in range(groups):
+        count = size + (g < extra)
+        out.append((first, count))
+        first += count
+    return out
+
+
+def sub_cases(study: Study, case: Case, raw: dict[str, Any]) -> list[Case]:
+    """The sub-cases of a case of a study's ``split_realisations`` (the case itself when
+    it is 1): each runs one group of its realisations (:func:`realisation_groups`), its
+    scene the case's (``raw``, its mapping) with ``random.first_realisation`` and
+    ``random.realisations`` set, its hash its own."""
+    if study.split_realisations == 1:
+        return [case]
+    out = []
+    for first, count in realisation_groups(
+        case.scene.random.realisations, study.split_realisations
+    ):
+        group = copy.deepcopy(raw)
+        apply_override(group, FIRST_REALISATION_KEY, first, source=study.source)
+        apply_override(group, REALISATIONS_KEY, count, source=study.source)
+        scene = scene_from_dict(group, source=case.scene.source)
+        out.append(Case(case.index, case.values, scene, case_hash(scene, study.kind), case))
+    return out
 
 
 def _check_levels(source: str, kind: str, split: dict[str, bool], grid: Any) -> None:
@@ -319,7 +408,9 @@ def case_hash(scene: Scene, kind: str) -> str:
 
 
 def expand(study: Study) -> list[Case]:
-    """Every case of the grid, in C order of :attr:`Study.case_axes`.
+    """Every case of the grid, in C order of :attr:`Study.case_axes`; with
+    ``split_realisations`` > 1, every case's sub-cases in its place (:func:`sub_cases`,
+    :func:`whole_cases` gives the cases back).
 
     Raises
     ------
@@ -341,10 +432,20 @@ def expand(study: Study) -> list[Case]:
             single = [value] if key == study.level_key else value
             apply_override(raw, key, single, source=study.source)
         label = grid_label(values)
-        scene = scene_from_dict(raw, source=f"{study.source}[{label}]" if label else study.source)
+        source = f"{study.source}[{label}]" if label else study.source
+        scene = scene_from_dict(copy.deepcopy(raw), source=source)
         preflight(scene)  # every check the case's run makes, before any case runs
-        cases.append(Case(index, values, scene, case_hash(scene, study.kind)))
+        case = Case(index, values, scene, case_hash(scene, study.kind))
+        cases += sub_cases(study, case, raw)
     return cases
+
+
+def whole_cases(cases: Sequence[Case]) -> list[Case]:
+    """The cases of a study, once each, in order: a sub-case's whole case in its place."""
+    out: dict[tuple[int, ...], Case] = {}
+    for case in cases:
+        out.setdefault(case.index, case.whole or case)
+    return list(out.values())
 
 
 # --------------------------------------------------------------------------- one case
@@ -719,6 +820,9 @@ __all__ = [
     "expand",
     "json_default",
     "load_study",
+    "realisation_groups",
     "run_case",
     "run_study",
+    "sub_cases",
+    "whole_cases",
 ]

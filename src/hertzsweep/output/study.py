@@ -36,6 +36,7 @@ from ..drivers.study import (
     error_record,
     json_default,
     run_study,
+    whole_cases,
 )
 from ..errors import HertzsweepError
 from .dataset import (
@@ -94,10 +95,21 @@ def read_part(path: Path, expected_hash: str | None = None) -> xr.Dataset | None
     return ds
 
 
+def read_case_part(folder: Path, case: Case) -> xr.Dataset | None:
+    """The part of a case (:func:`read_part`); a sub-case's only with its group's sums
+    (:func:`hertzsweep.output.realisations.is_group_part`)."""
+    ds = read_part(part_path(folder, case), case.hash)
+    if ds is None or case.whole is None:
+        return ds
+    from .realisations import is_group_part
+
+    return ds if is_group_part(ds) else None
+
+
 def resumable(cases: Sequence[Case], output: str | os.PathLike) -> list[Case]:
     """The cases whose part exists and is readable (what ``--resume`` skips)."""
     folder = parts_folder(output)
-    return [case for case in cases if read_part(part_path(folder, case), case.hash) is not None]
+    return [case for case in cases if read_case_part(folder, case) is not None]
 
 
 @dataclass(frozen=True)
@@ -126,6 +138,10 @@ class PartWriter:
         if outcome.error is None:
             try:
                 dataset = self.build(outcome.result, case.scene, self.history)
+                if case.whole is not None:  # a group of a case's realisations: its sums too
+                    from .realisations import add_group_variables
+
+                    add_group_variables(dataset, outcome.result, case.scene)
                 self.write_part(case, dataset)
             except Exception as exc:  # a failed case is recorded, the others go on
                 outcome = CaseOutcome(error=_write_error(exc), seconds=outcome.seconds)
@@ -235,12 +251,31 @@ def combine(
     failures: Sequence[str] = (),
 ) -> xr.Dataset | None:
     """ONE dataset of every case's part (:func:`study_dataset`), or None when no case
-    has one."""
+    has one. The sub-cases of a case (``split_realisations``) are merged into the case's
+    dataset (:func:`case_part`)."""
     folder = parts_folder(output)
-    parts = {case.index: read_part(part_path(folder, case), case.hash) for case in cases}
+    wholes = whole_cases(cases)
+    parts = {whole.index: case_part(folder, whole, cases, history) for whole in wholes}
     if all(ds is None for ds in parts.values()):
         return None
-    return study_dataset(study, cases, parts, history, failures)
+    return study_dataset(study, wholes, parts, history, failures)
+
+
+def case_part(
+    folder: Path, whole: Case, cases: Sequence[Case], history: str | None = None
+) -> xr.Dataset | None:
+    """The dataset of a case: its part, or, when it ran as sub-cases, the merge of
+    theirs (:func:`hertzsweep.output.realisations.merged_part`: bit for bit the unsplit
+    case's); None when it, or one of its sub-cases, has no part."""
+    groups = [case for case in cases if case.whole is whole]
+    if not groups:
+        return read_case_part(folder, whole)
+    parts = [read_case_part(folder, case) for case in groups]
+    if any(ds is None for ds in parts):
+        return None
+    from .realisations import merged_part
+
+    return merged_part(whole.scene, parts, folder, history)
 
 
 def varying_attributes(cases: Sequence[Case]) -> list[str]:
@@ -322,6 +357,11 @@ def study_dataset(
         "study_grid": ", ".join(axis.key for axis in study.grid),
         "study_split_sigma": int(study.split_sigma),
         **({"study_split_rms": int(study.split_rms)} if study.level_key == RMS_KEY else {}),
+        **(
+            {"study_split_realisations": study.split_realisations}
+            if study.split_realisations != 1
+            else {}
+        ),
         "study_cases": len(cases),
         "study_failed": len(failures),
         "study_failures": "\n".join(failures),
@@ -343,11 +383,14 @@ def _fill_value(dtype: np.dtype) -> Any:
 
 def study_config(study: Study) -> dict[str, Any]:
     """``config_json`` of a study: its file's content (``kind``, ``split_sigma``, a random
-    study's ``split_rms``, ``grid``) with the base scene resolved in place of the file it
-    names (``scene``: the tables of :meth:`~hertzsweep.core.config.Scene.to_dict`, the
-    study's inline tables and any overrides applied)."""
+    study's ``split_rms`` and, when not 1, ``split_realisations``, ``grid``) with the base
+    scene resolved in place of the file it names (``scene``: the tables of
+    :meth:`~hertzsweep.core.config.Scene.to_dict`, the study's inline tables and any
+    overrides applied)."""
     base = scene_from_dict(copy.deepcopy(study.base), source=study.source)
     split = {"split_rms": study.split_rms} if study.level_key == RMS_KEY else {}
+    if study.split_realisations != 1:
+        split["split_realisations"] = study.split_realisations
     return {
         "kind": study.kind,
         "split_sigma": study.split_sigma,
@@ -492,6 +535,8 @@ __all__ = [
     "failure_lines",
     "part_path",
     "parts_folder",
+    "case_part",
+    "read_case_part",
     "read_part",
     "resumable",
     "run_parts",
