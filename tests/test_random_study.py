@@ -235,6 +235,18 @@ def test_realisation_groups_are_contiguous_and_even():
     assert realisation_groups(5, 1) == [(0, 5)]
 
 
+def test_sub_cases_start_at_the_case_s_own_first_realisation(tmp_path, scene_file):
+    # a case of realisations 3..6 (first_realisation 3, 4 realisations) in 3 groups runs
+    # 3..4, 5 and 6: the groups count from the case's first, not from 0
+    path = tmp_path / "split.toml"
+    head = ['kind = "random"', 'scene = "scene.toml"', "split_realisations = 3"]
+    path.write_text(toml({"random": {"first_realisation": 3}, "grid": {}}, head))
+    cases = expand(load_study_file(path, STUDY_KINDS))
+    runs = [(c.scene.random.first_realisation, c.scene.random.realisations) for c in cases]
+    assert runs == [(3, 2), (5, 1), (6, 1)]
+    assert [c.label for c in cases] == [f"base, realisations {r}" for r in ("3-4", "5-5", "6-6")]
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_split_realisations_gives_the_unsplit_study_bit_for_bit(
     tmp_path, capsys, split_file, workers

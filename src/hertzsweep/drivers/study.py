@@ -356,11 +356,12 @@ def sub_cases(study: Study, case: Case, raw: dict[str, Any]) -> list[Case]:
     if study.split_realisations == 1:
         return [case]
     out = []
+    start = case.scene.random.first_realisation  # the case's own first, 0 by default
     for first, count in realisation_groups(
         case.scene.random.realisations, study.split_realisations
     ):
         group = copy.deepcopy(raw)
-        apply_override(group, FIRST_REALISATION_KEY, first, source=study.source)
+        apply_override(group, FIRST_REALISATION_KEY, start + first, source=study.source)
         apply_override(group, REALISATIONS_KEY, count, source=study.source)
         scene = scene_from_dict(group, source=case.scene.source)
         out.append(Case(case.index, case.values, scene, case_hash(scene, study.kind), case))
