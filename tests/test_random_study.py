@@ -244,7 +244,11 @@ def test_sub_cases_start_at_the_case_s_own_first_realisation(tmp_path, scene_fil
     cases = expand(load_study_file(path, STUDY_KINDS))
     runs = [(c.scene.random.first_realisation, c.scene.random.realisations) for c in cases]
     assert runs == [(3, 2), (5, 1), (6, 1)]
-    assert [c.label for c in cases] == [f"base, realisations {r}" for r in ("3-4", "5-5", "6-6")]
+    assert [c.label for c in cases] == [
+        "base, realisations 3-4",
+        "base, realisation 5",
+        "base, realisation 6",
+    ]
 
 
 @pytest.mark.parametrize("workers", [1, 2])

@@ -177,13 +177,17 @@ class Case:
     @property
     def label(self) -> str:
         """``damping.exponent=0.5, ...`` (``base`` for the only case of an empty grid);
-        a sub-case's adds its realisations (``realisations 5-9``)."""
+        a sub-case's adds its realisations (``realisations 5-9``, ``realisation 5``)."""
         label = grid_label(self.values) or "base"
         if self.whole is None:
             return label
         run = self.scene.random
-        last = run.first_realisation + run.realisations - 1
-        return f"{label}, realisations {run.first_realisation}-{last}"
+        first, last = run.first_realisation, run.first_realisation + run.realisations - 1
+        return (
+            f"{label}, realisation {first}"
+            if first == last
+            else f"{label}, realisations {first}-{last}"
+        )
 
 
 def grid_label(values: dict[str, Any]) -> str:
