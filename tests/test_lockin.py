@@ -15,6 +15,14 @@ from hertzsweep.kernels import scheme
 from .conftest import CONFIGS, make_scene
 
 
+def harmonic_sum(theta, orders, amplitude, phase):
+    """``sum_k A_k sin(k theta - phi_k)`` (phases in degrees): the lock-in's convention."""
+    return sum(
+        a * np.sin(k * theta - np.radians(p))
+        for k, a, p in zip(orders, amplitude, phase, strict=True)
+    )
+
+
 @pytest.mark.parametrize("samples_per_period, periods", [(64, 1), (256, 7), (1000, 3)])
 def test_synthetic_harmonics_exact(samples_per_period, periods):
     # A sum of harmonics below the Nyquist order is recovered exactly by a whole-period
@@ -23,10 +31,7 @@ def test_synthetic_harmonics_exact(samples_per_period, periods):
     harmonics = np.array([1, 2, 3, 5])
     amplitude = np.array([0.8, 0.17, 0.02, 1e-3])
     phase = np.array([12.0, 200.0, 359.5, 90.0])
-    signal = 1.3 + sum(
-        a * np.sin(k * theta - np.radians(p))
-        for k, a, p in zip(harmonics, amplitude, phase, strict=True)
-    )
+    signal = 1.3 + harmonic_sum(theta, harmonics, amplitude, phase)
     mean, a_out, p_out = demodulate(signal, harmonics, samples_per_period)
     assert mean == pytest.approx(1.3, abs=1e-12)
     np.testing.assert_allclose(a_out, amplitude, atol=1e-12)
@@ -94,10 +99,7 @@ def test_synthetic_fractional_orders_read_exactly_over_whole_response_periods():
     theta = 2 * np.pi * np.arange(6 * n) / n
     amplitude = np.array([0.6, 0.13, 0.011, 7e-4])
     phase = np.array([28.7, 169.4, 298.0, 96.8])
-    signal = 1.25 + sum(
-        a * np.sin(k * theta - np.radians(p))
-        for k, a, p in zip(HALVES, amplitude, phase, strict=True)
-    )
+    signal = 1.25 + harmonic_sum(theta, HALVES, amplitude, phase)
     mean, a_out, p_out = demodulate(signal, HALVES, n)
     assert abs(mean - 1.25) < 1e-12
     np.testing.assert_allclose(a_out, amplitude, rtol=0, atol=1e-12)

@@ -818,7 +818,7 @@ def random_costs(scene: Scene, repeats: int = 3) -> dict[str, float]:
     (:class:`~hertzsweep.drivers.random.Welch` over the measured segments)."""
     from ..kernels import random as kernels
     from .oscillator import model_law
-    from .random import Plan, Welch, forcing_table, kernel, run_random
+    from .random import Plan, Welch, forcing_table, kernel, run_random, step_segment
 
     _warm_random()
     steps = run_random(scene).steps
@@ -826,11 +826,7 @@ def random_costs(scene: Scene, repeats: int = 3) -> dict[str, float]:
     plan = Plan.of(scene)
     table = forcing_table(plan)
     forcing = _best(lambda: forcing_table(plan), repeats)
-    inputs = kernels.inputs(
-        np.repeat(plan.rms, plan.realisations),
-        np.tile(np.arange(plan.realisations), plan.rms.size),
-        plan.steps_per_period,
-    )
+    inputs = plan.drive()
     law = model_law(scene)
     chosen = kernel(scene)
     record = chosen.new_record(plan.segment_steps, plan.trajectories)
@@ -841,16 +837,8 @@ def random_costs(scene: Scene, repeats: int = 3) -> dict[str, float]:
         tally = kernels.new_tally(plan.trajectories, plan.bins, 0.0, plan.pdf_high / plan.bins)
         for first, length, measured in plan.chunks():
             part = type(record)(*(buffer[:length] for buffer in record))
-            g = table[m * first :]
-            if measured and tallied and chosen.measure is not None:
-                chosen.measure(law, plan.h, state, inputs, g, part, tally)
-                continue
-            if chosen.settle is not None and not (measured and tallied):
-                chosen.settle(law, plan.h, state, inputs, g, length)
-                continue
-            chosen.advance(law, plan.h, state, inputs, g, part)
-            if measured and tallied:
-                kernels.accumulate(part, tally)
+            read = tally if measured and tallied else None
+            step_segment(chosen, law, plan.h, (state, inputs), table[m * first :], part, read)
 
     def welch() -> None:
         sums = Welch(plan)

@@ -194,6 +194,13 @@ class Plan:
             first_realisation=int(run.first_realisation),
         )
 
+    def drive(self) -> kernels.RandomDrive:
+        """The :class:`~hertzsweep.kernels.random.RandomDrive` of the run's trajectories:
+        the levels outer, the realisations inner (the kernels' order)."""
+        level = np.repeat(self.rms, self.realisations)
+        realisation = np.tile(np.arange(self.realisations), self.rms.size)
+        return kernels.inputs(level, realisation, self.steps_per_period)
+
     @property
     def trajectories(self) -> int:
         return self.rms.size * self.realisations
@@ -438,28 +445,20 @@ def _integrate(plan: Plan, law: Any, sums: Sums, progress: Progress | None, scen
     m = plan.per_step
     table = forcing_table(plan)
     at_steps = table[::m]  # the samples at the steps (a view)
-    level = np.repeat(plan.rms, plan.realisations)  # level outer, realisation inner
-    realisation = np.tile(np.arange(plan.realisations), plan.rms.size)
-    drive = kernels.inputs(level, realisation, plan.steps_per_period)
+    drive = plan.drive()
     state = scheme_of.at_rest(drive, table, plan.h, law)
     record = scheme_of.new_record(plan.segment_steps, plan.trajectories)
     for first, length, measured in plan.chunks():
         part = type(record)(*(buffer[:length] for buffer in record))
-        g = table[m * first :]
-        fused = measured and scheme_of.measure is not None
-        if fused:
-            status, bad = scheme_of.measure(law, plan.h, state, drive, g, part, sums.tally)
-        elif not measured and scheme_of.settle is not None:
-            status, bad = scheme_of.settle(law, plan.h, state, drive, g, length)
-        else:
-            status, bad = scheme_of.advance(law, plan.h, state, drive, g, part)
+        tally = sums.tally if measured else None
+        status, bad = step_segment(
+            scheme_of, law, plan.h, (state, drive), table[m * first :], part, tally
+        )
         if status != scheme.OK:
             _raise(status, bad, plan, scene)
         sums.steps += length * plan.trajectories
         if measured:
             forcing = at_steps[first : first + length]
-            if not fused:
-                kernels.accumulate(part, sums.tally)
             sums.trace.add(part.excess, forcing, drive)
             if sums.ball_flight is not None:
                 sums.ball_flight += np.count_nonzero(part.flight, axis=0)
@@ -467,6 +466,32 @@ def _integrate(plan: Plan, law: Any, sums: Sums, progress: Progress | None, scen
                 sums.welch.add(part.excess, forcing, drive)
         if progress is not None:
             progress(length * plan.trajectories)
+
+
+def step_segment(
+    scheme_of: kernels.Kernel,
+    law: Any,
+    h: float,
+    trajectories: tuple[np.ndarray, kernels.RandomDrive],
+    g: np.ndarray,
+    part: Any,
+    tally: kernels.Tally | None,
+) -> tuple[int, int]:
+    """One segment of the record with the scene's kernels (``trajectories = (state,
+    drive)``, ``part`` the segment's record): measured (``tally`` given) it is stepped,
+    recorded and tallied, in one pass where the kernels have ``measure``, else by
+    ``advance`` then :func:`~hertzsweep.kernels.random.accumulate`; a transient (None) is
+    stepped, unrecorded where the kernels have ``settle``. Returns the kernel's
+    ``(status, trajectory)`` (the tallies unchanged unless OK)."""
+    state, drive = trajectories
+    if tally is not None and scheme_of.measure is not None:
+        return scheme_of.measure(law, h, state, drive, g, part, tally)
+    if tally is None and scheme_of.settle is not None:
+        return scheme_of.settle(law, h, state, drive, g, part.excess.shape[0])
+    status, bad = scheme_of.advance(law, h, state, drive, g, part)
+    if tally is not None and status == scheme.OK:
+        kernels.accumulate(part, tally)
+    return status, bad
 
 
 def _raise(status: int, bad: int, plan: Plan, scene: Scene) -> None:
@@ -705,4 +730,13 @@ def linear_psd(result: RandomResult, zeta: float) -> np.ndarray:
     return result.rms[:, None] ** 2 * power[None, :]
 
 
-__all__ = ["RandomResult", "Sums", "kernel", "linear_psd", "merge", "run_random", "step_count"]
+__all__ = [
+    "RandomResult",
+    "Sums",
+    "kernel",
+    "linear_psd",
+    "merge",
+    "run_random",
+    "step_count",
+    "step_segment",
+]

