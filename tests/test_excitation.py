@@ -24,6 +24,7 @@ import pytest
 from hertzsweep.core.excitation import (
     band_lines,
     coefficients,
+    forcing_phases,
     linear_response_variance,
     transmissibility,
     unit_forcing,
@@ -53,16 +54,44 @@ def test_the_band_holds_its_lines():
     assert band_lines((0.1, 0.3), 10).tolist() == [1, 2]
 
 
-def test_the_samples_are_the_sum_of_its_lines():
-    # the definition: g(tau) = sum_k a_k cos(k tau / P) + b_k sin(k tau / P) at tau_j = j h
-    # (h = 2 pi / N), evaluated directly; the FFT's rounding on O(1) values is ~1e-15
-    g = unit_forcing(SEED, 3, BAND, PERIODS, STEPS)
+@pytest.mark.parametrize(
+    ("steps", "per_step", "phases"),
+    [(STEPS, 1, 1), (256, 1, 8), (96, 2, 6), (64, 1, 2)],
+)
+def test_the_samples_are_the_sum_of_its_lines(steps, per_step, phases):
+    # the definition: g(tau) = sum_k a_k cos(k tau / P) + b_k sin(k tau / P) at tau_j =
+    # j h / m (h = 2 pi / N), evaluated directly at samples of every phase (one inverse FFT
+    # over every sample at 16 a period, 8, 6 and 2 phases of 32 a period otherwise); the
+    # FFTs' rounding on O(1) values is ~1e-15
+    assert forcing_phases(per_step * steps, BAND[1]) == phases
+    g = unit_forcing(SEED, 3, BAND, PERIODS, steps, per_step=per_step)
     k, a, b = coefficients(SEED, 3, BAND, PERIODS)
-    j = np.array([0, 1, 17, 1600, 3199])
-    tau = j * 2.0 * np.pi / STEPS
+    j = np.unique(np.r_[0:17, 1600:1613, np.random.default_rng(1).integers(0, g.size, 40)])
+    j = np.r_[j, g.size - 1]
+    tau = j * 2.0 * np.pi / (per_step * steps)
     phase = np.outer(tau, k / PERIODS)
     direct = np.cos(phase) @ a + np.sin(phase) @ b
     assert np.max(np.abs(g[j] - direct)) < 1e-12
+
+
+def test_the_phases_keep_the_band_below_their_nyquist_frequency():
+    # C = S / L samples a period a phase: at least 32 and at least 2 w_high, the largest L
+    assert forcing_phases(256, 3.0) == 8  # C = 32
+    assert forcing_phases(128, 20.0) == 2  # C = 64 >= 40
+    assert forcing_phases(128, 40.0) == 1  # C = 128: no divisor from 80 to 127
+    assert forcing_phases(16, 3.0) == 1  # fewer than 32 a period: one FFT
+    assert forcing_phases(100, 3.0) == 2  # C = 50: the divisors of 100 from 32 up
+    assert forcing_phases(97, 3.0) == 1  # a prime
+
+
+def test_a_strided_out_is_filled_as_a_new_array():
+    table = np.zeros((PERIODS * 64, 3))
+    got = unit_forcing(SEED, 2, BAND, PERIODS, 64, out=table[:, 1])
+    assert got is not None and np.shares_memory(got, table)
+    assert np.array_equal(table[:, 1], unit_forcing(SEED, 2, BAND, PERIODS, 64))
+    assert not table[:, 0].any() and not table[:, 2].any()
+    with pytest.raises(ValueError, match="out must be float64"):
+        unit_forcing(SEED, 2, BAND, PERIODS, 64, out=np.zeros(10))
 
 
 def test_the_variance_is_one(records):

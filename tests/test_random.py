@@ -150,6 +150,30 @@ def fused(law, level, realisations, g, n, segments, tally=None):
     return np.concatenate(excess), tally, state
 
 
+@pytest.mark.parametrize(("method", "first"), [("central-difference", 0), ("rk4", 5)])
+def test_the_forcing_table_holds_each_realisation_made_alone(method, first):
+    # 18 realisations: a group of FORCING_GROUP = 16 and one of 2, each phase made in two
+    # threads and copied into the rows in two slices; every column is its realisation's
+    # unit_forcing bit for bit (the run's realisation r the process's first + r), and
+    # rk4's last row (the end of the last step) repeats the first
+    run = {"realisations": 18, "segment_periods": 2, "first_realisation": first}
+    scene = make_scene(
+        damping={"ratio": ZETA, "law": "viscous"},
+        excitation={"kind": "random", "rms": [0.01], "band": list(BAND)},
+        solver={"steps_per_period": 64, "method": method},
+        random={"duration_periods": 6, "transient_periods": 2, **run},
+    )
+    plan = driver.Plan.of(scene)
+    table = driver.forcing_table(plan)
+    m = plan.per_step
+    assert table.shape == (m * 8 * 64 + (m > 1), 18)
+    for r in range(18):
+        alone = unit_forcing(0, first + r, BAND, 8, 64, per_step=m)
+        assert np.array_equal(table[: alone.size, r], alone), r
+    if m > 1:
+        assert np.array_equal(table[-1], table[0])
+
+
 @pytest.mark.parametrize("law", ["viscous", "contact"])
 @pytest.mark.parametrize("realisations", [3, 75])  # one block a level; two, the second short
 def test_the_fused_kernel_gives_the_numbers_of_advance_and_accumulate(law, realisations):

@@ -55,6 +55,7 @@ from .config import (
     load_scene,
     rig_key_furthest,
 )
+from .excitation import forcing_phases, process_periods
 from .model import STABILITY, omega_max, stability_limit, stability_reason
 from .rig import RigConstants, derive
 
@@ -444,11 +445,16 @@ PEAK_FACTOR = 10.0
 # The damping ratio the force estimate is floored at, as model.force_bound floors it: below
 # it the linear resonance grows beyond what a finite record reaches.
 ZETA_FLOOR = 1e-3
-# Floats held per sample of a realisation whose forcing is being generated: its complex
-# spectrum (2 floats per 2 samples), the inverse FFT's output and its work copy.
-FORCING_WORKSPACE = 3
-FORCING_THREADS = 2  # realisations whose forcing is made at once, each in its own thread
-# (hertzsweep.drivers.random.forcing_table; numpy's FFT releases the GIL), at most the cores
+# Floats held per sample of one phase (hertzsweep.core.excitation.Phases) while the forcing
+# is made: for each realisation of the group its complex spectrum (2 floats per 2 samples)
+# and the phase's samples; for each thread the inverse FFT's work copy.
+FORCING_WORKSPACE = 2
+FORCING_GROUP = 16  # realisations whose forcing is made together, phase by phase, each
+# phase's samples then copied into the table's rows at once (a row's group of realisations
+# side by side) rather than a realisation's column at a time
+FORCING_THREADS = 2  # realisations of a group whose phase is made at once, each in its own
+# thread (hertzsweep.drivers.random.forcing_table; numpy's FFT releases the GIL), at most
+# the cores
 # Per sample of a Welch segment and trajectory: N/F_s, its windowed copy and its rFFT
 # (half as many complex bins); per sample and realisation, the same for the forcing.
 SEGMENT_FLOATS = 3
@@ -614,7 +620,10 @@ def random_memory_terms(scene: Scene) -> list[tuple[int, str, dict[str, tuple[fl
     record = samples_per_step(scene) * steps * record_periods(scene)  # samples a realisation
     segment = random.segment_periods * steps  # samples a Welch segment
     bins = segment // 2 + 1  # its rFFT's bins (and the frequency coordinates, 2 a bin)
-    forcing = (realisations + FORCING_WORKSPACE * min(FORCING_THREADS, realisations)) * record
+    phases = forcing_phases(samples_per_step(scene) * steps, scene.excitation.band[1])
+    phase = samples_per_step(scene) * steps // phases * process_periods(record_periods(scene))
+    group = min(FORCING_GROUP, realisations)
+    forcing = realisations * record + (FORCING_WORKSPACE * group + FORCING_THREADS) * phase
     buffers = SEGMENT_FLOATS * segment * (trajectories + realisations)
     spectra = (BIN_ACCUMULATORS * trajectories + RESULT_COPIES * (BIN_RESULTS * levels + 2)) * bins
     histograms = (trajectories + RESULT_COPIES * (2 * levels + 1)) * random.force_bins
@@ -663,10 +672,11 @@ def random_memory_terms(scene: Scene) -> list[tuple[int, str, dict[str, tuple[fl
 
 def random_bytes(scene: Scene) -> int:
     """An estimate of the memory of a random run: the forcing of every realisation (``m N
-    P`` floats each, m = 2 for rk4's half steps) and the workspace generating one; per
-    trajectory the Welch segment's buffers, the accumulated spectra and the histogram and
-    moments; per level the dataset's spectra, histogram and statistics with their standard
-    errors, and the trace, held :data:`RESULT_COPIES` times."""
+    P`` floats each, m = 2 for rk4's half steps) and the workspace making a group of
+    :data:`FORCING_GROUP` of them a phase at a time; per trajectory the Welch segment's
+    buffers, the accumulated spectra and the histogram and moments; per level the dataset's
+    spectra, histogram and statistics with their standard errors, and the trace, held
+    :data:`RESULT_COPIES` times."""
     return sum(nbytes for nbytes, _, _ in random_memory_terms(scene))
 
 

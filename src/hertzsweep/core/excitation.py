@@ -20,8 +20,8 @@ child of ``SeedSequence(seed).spawn(R)`` for any R > r, so a realisation does no
 how many a scene runs), drawn for k in increasing order, ``a_k`` then ``b_k`` for each k
 (interleaved). They depend on (seed, realisation, band, P) alone: not on the method nor
 the step. :func:`unit_forcing` samples g at ``tau_j = j h / m`` (``h = 2 pi / N``; m = 1:
-the steps, m = 2: the steps and the half steps of rk4) by one inverse real FFT, so a finer
-step samples the same function.
+the steps, m = 2: the steps and the half steps of rk4) by inverse real FFTs, one for each
+phase of the samples (:func:`forcing_phases`), so a finer step samples the same function.
 
 :func:`linear_response_variance` and :func:`transmissibility` give the linear model's
 response to it (eq. 8 linearised about the static equilibrium ``q = 0``).
@@ -33,6 +33,7 @@ called).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -48,6 +49,10 @@ QUAD_LIMIT = 500
 # Relative accuracy asked of quad: far below the 3 standard errors (a few percent) the
 # variance is compared with in the tests of the random run.
 QUAD_RELATIVE_TOLERANCE = 1e-10
+# The fewest samples a period of one phase of the forcing (hertzsweep.core.excitation.
+# forcing_phases): at 256 samples a period, 8, 16 and 32 a phase all took 8 ns a sample
+# (numpy's inverse FFT), against 16 ns for one FFT over every sample.
+FORCING_PHASE_LEAST = 32
 # numpy.fft.irfft writes into a given array from numpy 2.0 on
 IRFFT_OUT = int(np.__version__.split(".")[0]) >= 2
 
@@ -140,21 +145,50 @@ def unit_forcing(
         m, samples a step: 1 (the steps) or 2 (the steps and the half steps of rk4); any
         whole number >= 1.
     out : numpy.ndarray, optional
-        float64[m N P'], where the inverse FFT writes the process's whole period (numpy
-        >= 2; an older numpy's result is copied into it), so that a caller making many
-        realisations reuses one buffer; the samples returned are then a view of its
-        first m N P. The same numbers either way.
+        float64[m N P], possibly strided (a column of a table of realisations), which the
+        samples are written into and which is returned. The same numbers either way.
 
     Returns
     -------
     numpy.ndarray
         float64 of length ``m N P``: ``g(j h / m)`` for ``j = 0 .. m N P - 1``; the force
         on the contact is ``F/F_s = rms g``. The process's lines are ``w_k = k / P'``
-        (``P' = process_periods(P)`` >= P); by one inverse real FFT of length
-        ``L = m N P'``, ``X[k] = (L / 2) (a_k - i b_k)`` on the band's lines and 0
-        elsewhere, since ``w_k tau_j = 2 pi k j / L``, of which the first m N P samples;
-        the samples at every m-th index are those of ``per_step = 1`` (to rounding,
-        1e-15), and so are those of a step halved.
+        (``P' = process_periods(P)`` >= P). With ``S = m N`` samples a period taken as
+        ``L`` phases of ``C = S / L`` (:func:`forcing_phases`), the samples
+        ``j = i L + l`` of phase l are one inverse real FFT of length ``M = C P'``,
+        ``X[k] = (M / 2) (a_k - i b_k) exp(2 pi i k l / (L M))`` on the band's lines and 0
+        elsewhere, since ``w_k tau_j = 2 pi k (i L + l) / (L M)``; ``C >= 2 w_high`` keeps
+        every line below the phase's Nyquist bin ``M / 2``. The samples at every m-th index
+        are those of ``per_step = 1``, and so are those of a step halved, to rounding
+        (1e-15).
+
+    Raises
+    ------
+    ValueError
+        A band not within ``(0, steps_per_period / 2)``, a length not a whole number
+        >= 1, or an ``out`` of another shape or type.
+    """
+    phases = Phases(seed, realisation, band, periods, steps_per_period, per_step)
+    if out is None:
+        out = np.empty(phases.record)
+    elif out.shape != (phases.record,) or out.dtype != np.float64:
+        raise ValueError(f"out must be float64[{phases.record}], got {out.dtype}{list(out.shape)}")
+    samples = np.empty(phases.size)
+    for phase in range(phases.phases):
+        phases.samples(phase, samples)
+        out[phase :: phases.phases] = samples[: phases.count]
+    return out
+
+
+class Phases:
+    """The samples of one realisation of the process over its record, phase by phase
+    (:func:`unit_forcing`): phase l holds the samples ``j = i L + l`` (``i = 0 ..
+    count - 1``), each phase one inverse real FFT of ``size`` (M) samples.
+
+    Parameters
+    ----------
+    seed, realisation, band, periods, steps_per_period, per_step
+        Those of :func:`unit_forcing`, in its order.
 
     Raises
     ------
@@ -162,30 +196,60 @@ def unit_forcing(
         A band not within ``(0, steps_per_period / 2)``, or a length not a whole number
         >= 1.
     """
-    low, high = _check_band(band)
-    periods = _whole(periods, "periods")
-    steps_per_period = _whole(steps_per_period, "steps_per_period")
-    per_step = _whole(per_step, "per_step")
-    if not high < steps_per_period / 2:
-        raise ValueError(
-            f"band {low:g} .. {high:g} reaches the step's Nyquist frequency "
-            f"steps_per_period / 2 = {steps_per_period / 2:g}"
-        )
-    period = process_periods(periods)
-    length = per_step * steps_per_period * period
-    k, a, b = coefficients(seed, realisation, band, period)
-    spectrum = np.zeros(length // 2 + 1, dtype=np.complex128)
-    spectrum[k] = (length / 2.0) * (a - 1j * b)
-    record = per_step * steps_per_period * periods
-    if out is None:
-        return np.fft.irfft(spectrum, length)[:record]
-    if out.shape != (length,) or out.dtype != np.float64:
-        raise ValueError(f"out must be float64[{length}], got {out.dtype}{list(out.shape)}")
-    if IRFFT_OUT:
-        np.fft.irfft(spectrum, length, out=out)
-    else:
-        out[:] = np.fft.irfft(spectrum, length)
-    return out[:record]
+
+    def __init__(self, *process: Any) -> None:
+        if not 5 <= len(process) <= 6:
+            raise TypeError(f"Phases takes 5 or 6 arguments (unit_forcing's), got {len(process)}")
+        seed, realisation, band, periods, steps_per_period, *rest = process
+        low, high = _check_band(band)
+        periods = _whole(periods, "periods")
+        steps_per_period = _whole(steps_per_period, "steps_per_period")
+        per_step = _whole(rest[0] if rest else 1, "per_step")
+        if not high < steps_per_period / 2:
+            raise ValueError(
+                f"band {low:g} .. {high:g} reaches the step's Nyquist frequency "
+                f"steps_per_period / 2 = {steps_per_period / 2:g}"
+            )
+        per_period = per_step * steps_per_period
+        period = process_periods(periods)
+        self.phases = forcing_phases(per_period, high)  # L
+        self.record = per_period * periods  # the samples of the record
+        self.count = self.record // self.phases  # a phase's samples of the record
+        self.size = per_period // self.phases * period  # M: a phase's over the process
+        self._k, a, b = coefficients(seed, realisation, band, period)
+        self._lines = (self.size / 2.0) * (a - 1j * b)
+        # the line k turned by exp(2 pi i k l / (L M)) at phase l: k < M / 2 and l < L, so
+        # k l < L M, an angle below 2 pi, exact in its float
+        self._turn = (2.0 * math.pi / (self.phases * self.size)) * self._k
+        self._spectrum = np.zeros(self.size // 2 + 1, dtype=np.complex128)
+
+    def samples(self, phase: int, out: np.ndarray) -> np.ndarray:
+        """Phase ``phase``'s samples over the process's period, written into ``out``
+        (float64[M], contiguous); its first :attr:`count` are the record's."""
+        lines = self._lines
+        self._spectrum[self._k] = lines * np.exp(1j * phase * self._turn) if phase else lines
+        if IRFFT_OUT:
+            np.fft.irfft(self._spectrum, self.size, out=out)
+        else:
+            out[:] = np.fft.irfft(self._spectrum, self.size)
+        return out
+
+
+def forcing_phases(per_period: int, high: float) -> int:
+    """L, the phases :func:`unit_forcing` samples a period of ``per_period`` samples in:
+    the largest divisor of ``per_period`` that leaves each phase ``C = per_period / L``
+    samples a period, with ``C >= 2 w_high`` (the band's lines below the phase's Nyquist
+    frequency) and ``C >= FORCING_PHASE_LEAST`` (an FFT long enough to pay its way). 1 (one
+    FFT over every sample) when no other divisor does. L inverse FFTs of length ``M = C P'``
+    cost ``S P' log M`` against ``S P' log(S P')`` for one over every sample, and each
+    works in a cache M floats long: at 256 samples a period and a band to w = 3, L = 8
+    halves the forcing's time."""
+    per_period = _whole(per_period, "per_period")
+    least = max(FORCING_PHASE_LEAST, 2.0 * float(high))
+    for phases in range(per_period, 0, -1):
+        if per_period % phases == 0 and per_period // phases >= least:
+            return phases
+    return 1
 
 
 def process_periods(periods: int) -> int:
@@ -300,7 +364,9 @@ def _whole(value: int, name: str, least: int = 1) -> int:
 __all__ = [
     "band_lines",
     "coefficients",
+    "forcing_phases",
     "linear_response_variance",
+    "Phases",
     "transmissibility",
     "unit_forcing",
 ]

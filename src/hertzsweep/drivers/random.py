@@ -13,10 +13,11 @@ segments are discarded; each measured one adds to the running tallies (moments, 
 contact loss, flights, histogram) and, when whole, to the Welch sums of its trajectory, so
 that neither the buffers nor the statistics grow with ``duration_periods``; the forcing
 table does (a float a sample and realisation, at the steps and for rk4 the half steps
-too: each realisation's process is one inverse FFT over the whole record, made
-:data:`~hertzsweep.core.checks.FORCING_THREADS` realisations at a time,
-:func:`forcing_table`). The first ``trace_periods`` measured periods of realisation 0 of
-every level are kept as they were recorded (N/F_s and f at the steps).
+too: each realisation's process made phase by phase, an inverse FFT a phase,
+:data:`~hertzsweep.core.checks.FORCING_GROUP` realisations together, in
+:data:`~hertzsweep.core.checks.FORCING_THREADS` threads, :func:`forcing_table`). The
+first ``trace_periods`` measured periods of realisation 0 of every level are kept as they
+were recorded (N/F_s and f at the steps).
 
 Welch: each whole measured segment of N/F_s and of f, its mean removed, times a periodic
 Hann window, one real FFT each (:class:`Welch`: FFTW when pyfftw is installed, else numpy;
@@ -37,7 +38,6 @@ from __future__ import annotations
 
 import math
 import os
-import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -45,14 +45,9 @@ from typing import Any
 
 import numpy as np
 
-from ..core.checks import FORCING_THREADS
+from ..core.checks import FORCING_GROUP, FORCING_THREADS
 from ..core.config import Scene
-from ..core.excitation import (
-    linear_response_variance,
-    process_periods,
-    transmissibility,
-    unit_forcing,
-)
+from ..core.excitation import Phases, linear_response_variance, transmissibility
 from ..core.rig import derive
 from ..errors import HertzsweepError, Interrupted
 from ..kernels import random as kernels
@@ -261,41 +256,70 @@ def forcing_table(plan: Plan) -> np.ndarray:
     process's period is the record, so the end of the last step is its start again.
 
     The run's realisation r is the process's realisation ``first_realisation + r``
-    (``random.first_realisation``), each
-    :func:`~hertzsweep.core.excitation.unit_forcing` (its inverse FFT written into a
-    buffer of the process's length that its thread keeps, then its first m L samples into
-    the realisation's column),
-    :data:`~hertzsweep.core.checks.FORCING_THREADS` realisations at a time (numpy's FFT
-    releases the GIL): the same numbers as one at a time."""
+    (``random.first_realisation``), each that of
+    :func:`~hertzsweep.core.excitation.unit_forcing`. The realisations are made
+    :data:`~hertzsweep.core.checks.FORCING_GROUP` at a time, phase by phase
+    (:class:`~hertzsweep.core.excitation.Phases`): a phase of every realisation of the
+    group, :data:`~hertzsweep.core.checks.FORCING_THREADS` at once in threads (numpy's FFT
+    releases the GIL), then copied into its rows, the group's realisations side by side.
+    Each realisation's samples are those of one made alone, bit for bit."""
     m = plan.per_step
     length = m * plan.periods * plan.steps_per_period
-    process = m * process_periods(plan.periods) * plan.steps_per_period
     table = np.empty((length + (m > 1), plan.realisations))
-    buffers = threading.local()
-
-    def column(r: int) -> None:
-        samples = getattr(buffers, "samples", None)
-        if samples is None:
-            samples = buffers.samples = np.empty(process)
-        stream = plan.first_realisation + r  # the run's realisation r
-        table[:length, r] = unit_forcing(
-            plan.seed, stream, plan.band, plan.periods, plan.steps_per_period, m, out=samples
-        )
-
     workers = min(FORCING_THREADS, os.cpu_count() or 1, plan.realisations)
-    if workers > 1:
-        pool = ThreadPoolExecutor(workers, thread_name_prefix="hertzsweep-forcing")
-        try:
-            for _ in pool.map(column, range(plan.realisations)):
-                pass
-        finally:  # on an interrupt, the realisations not begun are not made
-            pool.shutdown(wait=True, cancel_futures=True)
-    else:
-        for r in range(plan.realisations):
-            column(r)
+    pool = ThreadPoolExecutor(workers, thread_name_prefix="hertzsweep-forcing")
+
+    def each(task: Callable[[int], Any], count: int) -> list[Any]:
+        """``task(0 .. count - 1)`` in the threads, in order."""
+        return list(pool.map(task, range(count))) if workers > 1 else [*map(task, range(count))]
+
+    try:
+        for first in range(0, plan.realisations, FORCING_GROUP):
+            group = table[:length, first : first + FORCING_GROUP]
+            _forcing_group(plan, first, group, each, workers)
+    finally:  # on an interrupt, the phases not begun are not made
+        pool.shutdown(wait=True, cancel_futures=True)
     if m > 1:
         table[length] = table[0]
     return table
+
+
+def _forcing_group(
+    plan: Plan,
+    first: int,
+    group: np.ndarray,
+    each: Callable[[Callable[[int], Any], int], list[Any]],
+    parts: int,
+) -> None:
+    """The forcing of the run's realisations ``first ..`` into ``group`` (the table's
+    columns of them, float[m L, count]), phase by phase: each phase's samples of every
+    realisation by ``each`` (in threads), then copied into the phase's rows in ``parts``
+    slices, also by ``each``."""
+    count = group.shape[1]
+    made = each(
+        lambda j: Phases(
+            plan.seed,
+            plan.first_realisation + first + j,  # the run's realisation first + j
+            plan.band,
+            plan.periods,
+            plan.steps_per_period,
+            plan.per_step,
+        ),
+        count,
+    )
+    phases = made[0].phases
+    rows = np.empty((count, made[0].size))
+    cuts = np.linspace(0, made[0].count, parts + 1).astype(int)
+    for phase in range(phases):
+        into = group[phase::phases]
+        each(lambda j, phase=phase: made[j].samples(phase, rows[j]), count)
+        each(lambda p, into=into: _copy_rows(into, rows, cuts[p], cuts[p + 1]), parts)
+
+
+def _copy_rows(into: np.ndarray, rows: np.ndarray, start: int, stop: int) -> None:
+    """``into[start:stop] = rows[:, start:stop].T``: a phase's samples of a group of
+    realisations (a row each) into its rows of the table (a column each)."""
+    into[start:stop] = rows[:, start:stop].T
 
 
 # --------------------------------------------------------------------------- the run
