@@ -12,6 +12,7 @@ import json
 import numpy as np
 import pytest
 
+from hertzsweep.api.runs import counted_cases
 from hertzsweep.core.config import scene_from_dict
 from hertzsweep.drivers.random import STATISTICS, merge, run_random
 from hertzsweep.drivers.study import expand, realisation_groups, whole_cases
@@ -261,6 +262,8 @@ def test_split_realisations_gives_the_unsplit_study_bit_for_bit(
     study = load_study_file(split_path, STUDY_KINDS)
     cases = expand(study)
     assert len(cases) == 2 * SPLIT and len(whole_cases(cases)) == 2
+    # what the progress bar and an interruption count
+    assert (counted_cases(cases), counted_cases(whole_cases(cases))) == ("6 sub-cases", "2 cases")
     runs = [(c.scene.random.first_realisation, c.scene.random.realisations) for c in cases]
     assert runs == [(0, 3), (3, 2), (5, 2)] * 2
     assert len({c.hash for c in cases}) == len(cases)  # each its own case
@@ -274,7 +277,7 @@ def test_split_realisations_gives_the_unsplit_study_bit_for_bit(
         code, stdout, err = run_cli(argv, capsys)
         assert code == 0, err
         outputs[name] = open_dataset(out)
-    assert "6 cases: 6 computed, 0 resumed, 0 failed" in stdout
+    assert "2 cases as 6 sub-cases: 6 computed, 0 resumed, 0 failed" in stdout
     whole, split = outputs["whole"], outputs["split"]
     assert_same_study(split, whole)
     assert not any(name.startswith("realisation") for name in split.variables)
@@ -292,7 +295,7 @@ def test_split_realisations_gives_the_unsplit_study_bit_for_bit(
     argv += ["--workers", str(workers)]
     code, stdout, err = run_cli(argv, capsys)
     assert code == 0, err
-    assert "6 cases: 0 computed, 6 resumed, 0 failed" in stdout
+    assert "2 cases as 6 sub-cases: 0 computed, 6 resumed, 0 failed" in stdout
     assert_same_study(open_dataset(tmp_path / "split.nc"), whole)
 
 

@@ -357,7 +357,7 @@ def run_study(
     then the ONE dataset combined from them; ``resume`` skips the cases whose part is
     there and readable, ``stop_requested`` (a callable returning a signal number, 0 while
     none) ends the run early, the finished parts kept."""
-    from ..drivers.study import expand
+    from ..drivers.study import case_unit, expand
     from ..output.paths import parts_folder
     from ..output.study import failure_lines, resumable
 
@@ -365,8 +365,9 @@ def run_study(
     study_kind = kind("study")
     history = history or python_history("hertzsweep.study()")
     resumed = resumable(cases, output) if resume else []
+    unit = case_unit(cases)
     bar = meter(
-        len(cases), "study", progress, unit="case", initial=len(resumed), smoothing=STUDY_SMOOTHING
+        len(cases), "study", progress, unit=unit, initial=len(resumed), smoothing=STUDY_SMOOTHING
     )
     with bar as update:
         run = study_kind.run(
@@ -413,6 +414,14 @@ def study_inputs(study_file: str | os.PathLike) -> tuple[str, ...]:
     if isinstance(scene, str):
         files += read_scene_files(Path(study_file).parent / scene)[1]
     return files
+
+
+def counted_cases(cases: Any) -> str:
+    """``N cases``, or ``N sub-cases`` when a study's cases run as sub-cases
+    (``split_realisations``): what its progress and an interruption count."""
+    from ..drivers.study import case_unit
+
+    return f"{len(cases)} {case_unit(cases)}s"
 
 
 def cases_summary(run: Any) -> str:

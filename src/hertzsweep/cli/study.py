@@ -132,7 +132,7 @@ def conclude(outcome, output: str, engine) -> None:
     A study that writes no output (stopped, or every case failed) leaves a file already
     at ``output`` as it was, and its last line says that file is an earlier run's."""
     from ..api.files import parts_folder, write
-    from ..api.runs import cases_summary
+    from ..api.runs import cases_summary, counted_cases
 
     run, cases, ds, failures = outcome.run, outcome.cases, outcome.dataset, outcome.failures
     for line in failures:
@@ -141,7 +141,8 @@ def conclude(outcome, output: str, engine) -> None:
         name = signal.Signals(run.stopped_by).name
         done = len(run.computed) + len(run.resumed)
         folder = parts_folder(output)
-        message = f"interrupted by {name}: {done} of {len(cases)} cases finished, kept in {folder}"
+        counted = counted_cases(cases)
+        message = f"interrupted by {name}: {done} of {counted} finished, kept in {folder}"
         raise Stopped(f"{message}; rerun with --resume{_earlier(output)}", run.stopped_by)
     if ds is not None:
         write(ds, output)

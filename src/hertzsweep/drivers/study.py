@@ -800,10 +800,20 @@ def run_study(
     return run
 
 
+def case_unit(cases: Sequence[Case]) -> str:
+    """What a study's progress and messages count: ``"case"``, or ``"sub-case"`` when its
+    cases run as sub-cases (``split_realisations`` > 1)."""
+    return "case" if len(whole_cases(cases)) == len(cases) else "sub-case"
+
+
 def cases_summary(run: StudyRun) -> str:
-    """``N cases: C computed, R resumed, F failed in S s``."""
+    """``N cases: C computed, R resumed, F failed in S s``; ``N cases as M sub-cases:
+    ...`` when the cases run as sub-cases (the counts are then the sub-cases')."""
+    count = f"{len(run.cases)} cases"
+    if case_unit(run.cases) == "sub-case":
+        count = f"{len(whole_cases(run.cases))} cases as {count.replace('cases', 'sub-cases')}"
     return (
-        f"{len(run.cases)} cases: {len(run.computed)} computed, {len(run.resumed)} resumed, "
+        f"{count}: {len(run.computed)} computed, {len(run.resumed)} resumed, "
         f"{len(run.failed)} failed in {run.seconds:.1f} s"
     )
 
@@ -819,6 +829,7 @@ __all__ = [
     "StudyRun",
     "canonical_json",
     "case_hash",
+    "case_unit",
     "cases_summary",
     "dimension_name",
     "error_record",
