@@ -29,6 +29,7 @@ from hertzsweep.output.study import (
 )
 
 from .conftest import PAPER_RIG, run_cli
+from .test_study import interrupted, snapshot, start
 
 LEVELS = [0.001, 0.2]  # the linear regime, and frequent loss of contact
 RATIOS = [0.0045, 0.02]  # damping ratios: each case's histogram spans its own range
@@ -297,6 +298,56 @@ def test_split_realisations_gives_the_unsplit_study_bit_for_bit(
     assert code == 0, err
     assert "2 cases as 6 sub-cases: 0 computed, 6 resumed, 0 failed" in stdout
     assert_same_study(open_dataset(tmp_path / "split.nc"), whole)
+
+
+@pytest.mark.slow
+def test_an_interrupted_split_study_resumes_to_the_unsplit_dataset(tmp_path, capsys):
+    # 2 cases as 6 sub-cases of about 0.3 s each on one worker (2 or 3 realisations x 2
+    # levels x 12016 periods of 128 steps): SIGTERM lands after the first part. The parts
+    # kept are not touched by the resume, which computes the rest; the dataset is the
+    # unsplit study's, bit for bit.
+    raw = split_scene(duration_periods=12000, trace_periods=0)
+    raw["solver"] = {"steps_per_period": 128}
+    (tmp_path / "scene.toml").write_text(toml(raw))
+    grid = {"damping.ratio": RATIOS}
+    split = write_study(tmp_path / "split.toml", grid, split_realisations=SPLIT)
+    out = tmp_path / "split.nc"
+    folder = parts_folder(out)
+    _, err = interrupted(split, out)
+    before = snapshot(folder)
+    assert 1 <= len(before) < 6 and not out.exists()
+    assert f"interrupted by SIGTERM: {len(before)} of 6 sub-cases finished" in err
+    resumed = start(split, out, "--workers", "1", "--resume")
+    stdout, err = resumed.communicate(timeout=120)
+    assert resumed.returncode == 0, err
+    counts = f"{6 - len(before)} computed, {len(before)} resumed, 0 failed"
+    assert f"2 cases as 6 sub-cases: {counts}" in stdout
+    after = snapshot(folder)
+    assert len(after) == 6 and all(after[name] == before[name] for name in before)
+    whole = write_study(tmp_path / "whole.toml", grid)
+    code, _, err = run_cli(["study", whole, "-o", tmp_path / "whole.nc", "-q"], capsys)
+    assert code == 0, err
+    assert_same_study(open_dataset(out), open_dataset(tmp_path / "whole.nc"))
+
+
+@pytest.mark.slow
+def test_a_split_study_on_dask_is_the_unsplit_study(tmp_path, capsys, split_file):
+    # the sub-cases on a Dask cluster of two worker processes: the same engine code as the
+    # local pool, the dataset the unsplit study's bit for bit
+    distributed = pytest.importorskip("distributed")
+    grid = {"damping.ratio": RATIOS}
+    whole = write_study(tmp_path / "whole.toml", grid)
+    split = write_study(tmp_path / "split.toml", grid, split_realisations=SPLIT)
+    code, _, err = run_cli(["study", whole, "-o", tmp_path / "whole.nc", "-q"], capsys)
+    assert code == 0, err
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        argv = ["study", split, "-o", tmp_path / "dask.nc", "-q"]
+        code, stdout, err = run_cli([*argv, "--scheduler", cluster.scheduler_address], capsys)
+    assert code == 0, err
+    assert "2 cases as 6 sub-cases: 6 computed" in stdout and "on Dask cluster" in stdout
+    assert_same_study(open_dataset(tmp_path / "dask.nc"), open_dataset(tmp_path / "whole.nc"))
 
 
 def test_a_sub_case_part_holds_its_realisations(tmp_path, capsys, split_file):

@@ -367,6 +367,17 @@ def wait_for_parts(folder, count, proc, timeout=120.0):
     raise AssertionError("no part appeared")
 
 
+def interrupted(path, out):
+    """The study run on one worker and sent SIGTERM once its first part is kept: the
+    process (ended with exit status 128 + SIGTERM) and its standard error."""
+    proc = start(path, out, "--workers", "1")
+    wait_for_parts(parts_folder(out), 1, proc)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    return proc, err
+
+
 def group_gone(pgid, timeout=10.0):
     deadline = time.monotonic() + timeout
     while True:
@@ -388,11 +399,7 @@ def test_sigterm_then_resume_equals_the_uninterrupted_study(tmp_path):
     path = slow_study(tmp_path)
     out = tmp_path / "study.nc"
     folder = parts_folder(out)
-    proc = start(path, out, "--workers", "1")
-    wait_for_parts(folder, 1, proc)
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 128 + signal.SIGTERM, err
+    proc, err = interrupted(path, out)
     assert "interrupted by SIGTERM" in err and "--resume" in err
     assert group_gone(proc.pid)  # the workers ended with the driver
     assert not out.exists()
