@@ -15,6 +15,8 @@ seed fixed, N/F_s compared at the steps of the coarsest step.
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -28,7 +30,8 @@ from hertzsweep.errors import Interrupted
 from hertzsweep.kernels import random as kernels
 from hertzsweep.output.dataset import random_dataset, write_netcdf
 
-from .conftest import make_scene
+from .conftest import PAPER_RIG, make_scene, run_cli
+from .tomlwriter import toml_document
 
 ZETA = 0.0045  # the paper's damping ratio
 BAND = (0.2, 3.0)  # the band of frequency ratios, below the ball's mode
@@ -256,6 +259,31 @@ def test_the_ensemble_statistics_agree_across_the_step(tables, n):
 
 
 # --------------------------------------------------------------------------- the ball's own
+def test_a_blow_up_between_two_checks_ends_as_a_stability_error(tmp_path, capsys):
+    # rms 30 at 8 steps a period, contact law, rk4: validate accepts it (the step 1.1x its
+    # estimated stability limit), but an impact drives a trajectory beyond the limit and
+    # to a non-finite state between two checks (one a period). The crossing of such a
+    # state must end, and the run with it: one line, exit 2, the stability error. In a
+    # process of its own with a timeout, because what this guards against is a loop.
+    raw = {
+        "rig": dict(PAPER_RIG),
+        "damping": {"ratio": 0.01, "law": "contact", "exponent": 1.5},
+        "excitation": {"kind": "random", "rms": [30.0], "band": list(BAND)},
+        "solver": {"method": "rk4", "steps_per_period": 8},
+        "random": {"realisations": 5, "duration_periods": 64, "transient_periods": 0},
+    }
+    path = tmp_path / "edge.toml"
+    path.write_text(toml_document(raw))
+    code, stdout, err = run_cli(["validate", path], capsys)
+    assert code == 0 and "1.1x the stability limit" in stdout, err
+    argv = [sys.executable, "-m", "hertzsweep", "random", str(path), "-o", str(tmp_path / "x.nc")]
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=240)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert "beyond the stability limit at the compression reached (rms = 30" in lines[0]
+    assert not (tmp_path / "x.nc").exists()
+
+
 def test_the_ball_flies_when_both_contacts_open():
     # ball_flight_fraction: the share of the measured steps with both contacts open, at
     # most the lower contact's loss fraction; none in the linear regime. On the paper's

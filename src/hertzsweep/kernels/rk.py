@@ -485,7 +485,8 @@ def _correct(law, drive, h, crossing, span, sums, fourier, period):
                     fourier[i, 0] += beta * (c * defect - direction * kw * s * slope) * per_h
                     fourier[i, 1] += beta * (s * defect + direction * kw * c * slope) * per_h
         at_lo = at_hi
-        if hi >= limit:
+        if not hi < limit:  # hi >= limit, or a crossing of a state already non-finite (NaN
+            # compares false: the loop ends, and the NaN it returns is the caller's to flag)
             sums[0] += total * per_h
             return dq, dv, ddq, ddv
         if hi + h < reach:
