@@ -219,6 +219,24 @@ def test_the_fused_kernel_names_the_unstable_trajectory():
     assert tally.sums[kernels.COUNT].max() == 0.0  # the failed segment is not counted
 
 
+def test_the_bench_figures_of_the_random_run():
+    # hertzsweep bench's random figures in quick mode: every part measured (each a positive
+    # time per trajectory-step), the ratios over the lockstep figure given (here 2 ns), the
+    # paper scene's steps those of configs/paper/random.toml
+    from hertzsweep.drivers.bench import random_figures
+
+    figures = random_figures(2.0, quick=True)
+    parts = ("", "compiled_", "untallied_", "forcing_", "welch_", "rk4_compiled_", "rk4_untallied_")
+    for part in parts:
+        value = figures[f"random_{part}ns_per_trajectory_step"]
+        assert math.isfinite(value) and value > 0.0, part
+    for part in ("", "compiled_", "untallied_"):
+        ratio = figures[f"random_{part}ratio_to_lockstep"]
+        assert ratio == figures[f"random_{part}ns_per_trajectory_step"] / 2.0
+    assert figures["random_paper_trajectory_steps"] == 5 * 16 * 2200 * 128
+    assert 0.0 < figures["random_paper_seconds"] < 60.0  # a stuck run, not a speed bound
+
+
 def test_the_kernel_stops_on_request():
     n = 32
     g = unit_forcing(0, 0, BAND, 10, n)[:, None]

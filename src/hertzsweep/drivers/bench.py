@@ -758,6 +758,7 @@ RANDOM_LEVELS = (0.001, 0.01, 0.05, 0.15, 0.3)  # the paper scene's rms levels w
 # contact (loss fractions 0, 0, 5e-4, 0.22 and 0.53 of the time on the paper's rig)
 RANDOM_BAND = (0.2, 3.0)  # the issue's band of frequency ratios
 RANDOM_LOCKSTEP = 16  # realisations of the ns figure: the lockstep sweep's 16 trajectories
+RANDOM_RK4_STEPS = 64  # rk4's steps a period in its random figures (its order 4 needs fewer)
 
 
 def random_scene(
@@ -862,7 +863,9 @@ def random_figures(lockstep_ns: float, quick: bool = False) -> dict[str, Any]:
     with their tallies and of the steps alone, each over ``lockstep_ns`` (the lockstep
     sweep's ns per trajectory-step of as many trajectories, measured in the same run; the
     issue's bound: 1.5), and the forcing table's and the Welch sums' parts
-    (:func:`random_costs`); and the wall time [s] of the paper scene's run
+    (:func:`random_costs`); rk4's compiled steps with their tallies and alone on the same
+    realisations (:data:`RANDOM_RK4_STEPS` steps a period, 440 periods); and the wall time
+    [s] of the paper scene's run
     (:func:`paper_random_scene`, best of 2, once in quick mode; kernels loaded beforehand,
     the forcing's generation included: the issue's bound 10 s) and its trajectory-steps."""
     from .random import run_random
@@ -881,6 +884,12 @@ def random_figures(lockstep_ns: float, quick: bool = False) -> dict[str, Any]:
         "random_forcing_ns_per_trajectory_step": costs["forcing_ns_per_trajectory_step"],
         "random_welch_ns_per_trajectory_step": costs["welch_ns_per_trajectory_step"],
     }
+    # rk4 (advance_rk4 then accumulate) on the same realisations, 400 + 40 periods of 64 steps
+    rk4 = random_scene((0.01,), RANDOM_LOCKSTEP, 400, 40, zeta=0.01)
+    rk4 = replace(rk4, solver=replace(rk4.solver, method="rk4", steps_per_period=RANDOM_RK4_STEPS))
+    costs = random_costs(rk4, repeats=1 if quick else 3)
+    out["random_rk4_compiled_ns_per_trajectory_step"] = costs["compiled_ns_per_trajectory_step"]
+    out["random_rk4_untallied_ns_per_trajectory_step"] = costs["untallied_ns_per_trajectory_step"]
     paper = paper_random_scene()
     out["random_paper_trajectory_steps"] = run_random(paper).steps
     out["random_paper_seconds"] = _best(lambda: run_random(paper), 1 if quick else 2)

@@ -597,36 +597,47 @@ def advance_rk4(law, h, state, drive, g, record):
     scratch = (np.zeros(1), np.zeros((0, 2)), nothing)
     limit = 8.0 / (h * h)  # (h omega)^2 < 8 with omega^2 = sqrt(d): core.model.STABILITY
     peak = np.zeros(count)
+    loads = np.empty((3, count))  # a step's loads at its start, middle and end
+    ends = np.empty((2, count))  # a step's (q, q') at its end
+    velocity, displacement = state[VELOCITY], state[DISPLACEMENT]
     start = state[STEPS, 0] if count else 0.0
     since = 0
     for j in range(excess.shape[0]):
         now = start + j
+        g0, gm, g1 = g[2 * j], g[2 * j + 1], g[2 * j + 2]
+        # Three passes a step. The loads are gathered into rows; every trajectory's RK4
+        # step then has no call and no gather in it, so the compiler vectorises it across
+        # the trajectories; the few steps that crossed d = 0 are taken again by _split
+        # from the state at their start, still in ``state``. The numbers are those of one
+        # pass per trajectory, bit for bit.
         for t in range(count):
-            sigma = level[t]
-            r = column[t]
-            samples = (g[2 * j, r], g[2 * j + 1, r], g[2 * j + 2, r])
-            v, q = state[VELOCITY, t], state[DISPLACEMENT, t]
+            r, sigma = column[t], level[t]
+            loads[0, t] = forcing(sigma, g0[r])
+            loads[1, t] = forcing(sigma, gm[r])
+            loads[2, t] = forcing(sigma, g1[r])
+        for t in range(count):
+            v, q = velocity[t], displacement[t]
             inside = to_compression(q) > 0.0
-            loads = (
-                forcing(sigma, samples[0]),
-                forcing(sigma, samples[1]),
-                forcing(sigma, samples[2]),
-            )
-            q1, v1, x, root = _rk4(law, q, v, h, loads, 1 if inside else -1)
+            step_loads = (loads[0, t], loads[1, t], loads[2, t])
+            q1, v1, x, root = _rk4(law, q, v, h, step_loads, 1 if inside else -1)
             peak[t] = root if root > peak[t] else peak[t]
             excess[j, t] = x[0]
             contact[j, t] = inside
+            ends[0, t], ends[1, t] = q1, v1
+        for t in range(count):
+            q1, v1 = ends[0, t], ends[1, t]
+            inside = contact[j, t]
             if (to_compression(q1) > 0.0) != inside:
+                r = column[t]
                 event = (inside, now, state[CROSSING, t])
-                ends = (q, v, q1, v1)
-                q1, v1, state[CROSSING, t] = _split(law, h, ends, (sigma, samples), event, scratch)
-            state[VELOCITY, t], state[DISPLACEMENT, t] = v1, q1
+                step = (displacement[t], velocity[t], q1, v1)
+                samples = (level[t], (g0[r], gm[r], g1[r]))
+                q1, v1, state[CROSSING, t] = _split(law, h, step, samples, event, scratch)
+            velocity[t], displacement[t] = v1, q1
         since += 1
         if since == drive.steps_per_period or j == excess.shape[0] - 1:
             since = 0
-            status, bad = _check(
-                peak, limit, state[VELOCITY], state[DISPLACEMENT], False, drive.stop
-            )
+            status, bad = _check(peak, limit, velocity, displacement, False, drive.stop)
             if status != OK:
                 state[STEPS, :] = now + 1.0
                 return status, bad
