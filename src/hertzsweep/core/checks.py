@@ -617,11 +617,12 @@ def random_memory_terms(scene: Scene) -> list[tuple[int, str, dict[str, tuple[fl
     realisations = random.realisations
     trajectories = levels * realisations
     steps = scene.solver.steps_per_period
-    record = samples_per_step(scene) * steps * record_periods(scene)  # samples a realisation
+    per_period = samples_per_step(scene) * steps  # forcing samples a period
+    record = per_period * record_periods(scene)  # samples a realisation
     segment = random.segment_periods * steps  # samples a Welch segment
     bins = segment // 2 + 1  # its rFFT's bins (and the frequency coordinates, 2 a bin)
-    phases = forcing_phases(samples_per_step(scene) * steps, scene.excitation.band[1])
-    phase = samples_per_step(scene) * steps // phases * process_periods(record_periods(scene))
+    phases = forcing_phases(per_period, scene.excitation.band[1])
+    phase = per_period // phases * process_periods(record_periods(scene))  # M, a phase's
     group = min(FORCING_GROUP, realisations)
     forcing = realisations * record + (FORCING_WORKSPACE * group + FORCING_THREADS) * phase
     buffers = SEGMENT_FLOATS * segment * (trajectories + realisations)

@@ -271,7 +271,7 @@ def forcing_table(plan: Plan) -> np.ndarray:
 
     def each(task: Callable[[int], Any], count: int) -> list[Any]:
         """``task(0 .. count - 1)`` in the threads, in order."""
-        return list(pool.map(task, range(count))) if workers > 1 else [*map(task, range(count))]
+        return list(pool.map(task, range(count)))
 
     try:
         for first in range(0, plan.realisations, FORCING_GROUP):

@@ -809,9 +809,8 @@ def case_unit(cases: Sequence[Case]) -> str:
 def cases_summary(run: StudyRun) -> str:
     """``N cases: C computed, R resumed, F failed in S s``; ``N cases as M sub-cases:
     ...`` when the cases run as sub-cases (the counts are then the sub-cases')."""
-    count = f"{len(run.cases)} cases"
-    if case_unit(run.cases) == "sub-case":
-        count = f"{len(whole_cases(run.cases))} cases as {count.replace('cases', 'sub-cases')}"
+    count, wholes = len(run.cases), len(whole_cases(run.cases))
+    count = f"{count} cases" if wholes == count else f"{wholes} cases as {count} sub-cases"
     return (
         f"{count}: {len(run.computed)} computed, {len(run.resumed)} resumed, "
         f"{len(run.failed)} failed in {run.seconds:.1f} s"
