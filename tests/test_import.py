@@ -9,7 +9,7 @@ import xarray as xr
 from hertzsweep.drivers.fit import JumpMeasurements, SweepMeasurements
 from hertzsweep.output import plot
 from hertzsweep.output.dataset import global_attributes, open_dataset, write_atomic
-from hertzsweep.output.kinds import figure
+from hertzsweep.output.figures import figure
 from hertzsweep.output.measured import (
     measured_dataset,
     measurements_from_dataset,

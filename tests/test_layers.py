@@ -31,7 +31,7 @@ ANYWHERE = {PACKAGE, f"{PACKAGE}.errors"}  # the package root (version) and the 
 ENTRY = f"{PACKAGE}.__main__"  # ``python -m hertzsweep``: above every layer
 MAX_FMT_SKIP = 5  # hand-formatted lines: a long call wants keywords or a bundle instead
 LONG_FUNCTION = 80  # [code lines] non-blank, non-comment, docstring excluded
-MAX_LONG_FUNCTIONS = 2  # functions allowed beyond LONG_FUNCTION
+MAX_LONG_FUNCTIONS = 0  # functions allowed beyond LONG_FUNCTION
 MAX_KERNEL_PARAMETERS = 8  # beyond this a compiled function should take a parameter bundle
 JIT_DECORATORS = {"njit", "jit"}  # numba.njit, numba.jit, and the names imported bare
 

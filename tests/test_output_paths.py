@@ -60,7 +60,7 @@ def hidden(folder: Path) -> list[str]:
 def no_computing(monkeypatch):
     """Every command's driver replaced by one that fails the test when it is called: a
     refused output must end the command before anything is computed."""
-    from hertzsweep.output.kinds import KINDS
+    from hertzsweep.core.kinds import KINDS
 
     def computed(*args, **kwargs):
         raise AssertionError("computed although the output was refused")
@@ -226,7 +226,7 @@ def test_every_writing_command_checks_its_output(tmp_path, capsys, no_computing)
 def test_plot_checks_its_figure_path_before_drawing(tmp_path, capsys, monkeypatch):
     # plot's -o is the same checked option: a FIFO or a link with a figure's name, a
     # folder, an empty path are refused before the dataset is read or drawn
-    import hertzsweep.output.kinds as plot_command
+    import hertzsweep.output.figures as plot_command
 
     def no_drawing(*args, **kwargs):
         raise AssertionError("drew a figure for an output it cannot write")
@@ -501,8 +501,8 @@ def test_stopped_study_says_the_output_is_an_earlier_runs(tmp_path, capsys, monk
 def interrupted_sweep(monkeypatch):
     """The sweep driver runs, then reports an interrupt with its whole result as the
     partial one (as SIGINT after the last dwell would)."""
+    from hertzsweep.core.kinds import KINDS
     from hertzsweep.errors import Interrupted
-    from hertzsweep.output.kinds import KINDS
 
     real = KINDS["sweep"]
 

@@ -11,11 +11,11 @@ from matplotlib.image import imread
 from PIL import Image
 
 from hertzsweep.core.config import load_scene
+from hertzsweep.core.kinds import KINDS
 from hertzsweep.core.model import check_stability
 from hertzsweep.errors import ConfigError
 from hertzsweep.output import paper
 from hertzsweep.output.dataset import open_dataset
-from hertzsweep.output.kinds import KINDS
 from hertzsweep.output.paper import AGREE, Ours, Reported, validation_table
 
 from .conftest import CONFIGS, run_cli

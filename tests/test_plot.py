@@ -16,11 +16,12 @@ from PIL import Image
 
 from hertzsweep import __version__
 from hertzsweep.cli.plot import DEFAULT_DPI
+from hertzsweep.core.kinds import KINDS
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import HertzsweepError
 from hertzsweep.output import plot
 from hertzsweep.output.dataset import attrs, global_attributes, sweep_dataset, write_atomic
-from hertzsweep.output.kinds import KINDS, figure
+from hertzsweep.output.figures import figure
 
 from .conftest import make_scene, run_cli
 from .test_fit import fit_drawn

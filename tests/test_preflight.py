@@ -483,6 +483,6 @@ def test_validate_reports_the_figures(capsys):
 
 def run_sweep_steps(path):
     """The steps the sweep command's run takes (its kind's runner)."""
-    from hertzsweep.output.kinds import KINDS
+    from hertzsweep.core.kinds import KINDS
 
     return KINDS["sweep"].run(load_scene(path)).steps

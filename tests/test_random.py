@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from hertzsweep.core.excitation import linear_response_variance, unit_forcing
+from hertzsweep.core.kinds import KINDS
 from hertzsweep.drivers import random as driver
 from hertzsweep.drivers.random import ensemble, linear_psd, run_random, step_count
 from hertzsweep.errors import Interrupted
@@ -23,7 +24,6 @@ from hertzsweep.kernels import random as kernels
 from hertzsweep.kernels import stop
 from hertzsweep.kernels.laws import make_law
 from hertzsweep.output.dataset import random_dataset, write_netcdf
-from hertzsweep.output.kinds import KINDS
 
 from .conftest import make_scene
 

@@ -18,9 +18,10 @@ from PIL import Image
 
 import hertzsweep as hs
 from hertzsweep.core.excitation import linear_response_variance
+from hertzsweep.core.kinds import KINDS
 from hertzsweep.output import plot
 from hertzsweep.output.dataset import open_dataset
-from hertzsweep.output.kinds import KINDS, figure
+from hertzsweep.output.figures import figure
 
 from .conftest import CONFIGS, PAPER_RIG, run_cli
 from .test_api import same

@@ -14,12 +14,12 @@ import pytest
 
 from hertzsweep.api.runs import counted_cases
 from hertzsweep.core.config import scene_from_dict
+from hertzsweep.core.kinds import STUDY_KINDS
 from hertzsweep.drivers.random import STATISTICS, merge, run_random
 from hertzsweep.drivers.study import expand, realisation_groups, whole_cases
 from hertzsweep.drivers.study import load_study as load_study_file
 from hertzsweep.output import realisations as split_parts
 from hertzsweep.output.dataset import open_dataset
-from hertzsweep.output.kinds import STUDY_KINDS
 from hertzsweep.output.study import (
     part_path,
     parts_folder,

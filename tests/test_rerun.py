@@ -112,7 +112,7 @@ def test_rerun_refuses_a_dataset_without_its_configuration(files, tmp_path, caps
 
 def test_rerun_refuses_a_kind_it_cannot_run(files, tmp_path, capsys):
     from hertzsweep.api.rerun import RUNNERS
-    from hertzsweep.output.kinds import KINDS as REGISTRY
+    from hertzsweep.core.kinds import KINDS as REGISTRY
 
     others = [name for name in REGISTRY if name not in RUNNERS and name != "study"]
     if not others:

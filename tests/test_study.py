@@ -12,11 +12,11 @@ import time
 import numpy as np
 import pytest
 
+from hertzsweep.core.kinds import STUDY_KINDS
 from hertzsweep.drivers.study import Engine, canonical_json, case_hash, expand, run_case, run_study
 from hertzsweep.drivers.study import load_study as load_study_file
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.output.dataset import open_dataset
-from hertzsweep.output.kinds import STUDY_KINDS
 from hertzsweep.output.study import parts_folder, read_part
 
 from .conftest import CONFIGS, PAPER_RIG, run_cli
@@ -443,11 +443,3 @@ def test_sigkill_leaves_no_corrupt_part_or_output(tmp_path):
     assert len(parts) >= 2
     for part in parts:  # every part present opens and is the case it names
         assert part.stem in hashes and read_part(part, part.stem) is not None
-
-
-def test_case_kinds_are_the_kinds_with_a_case_driver():
-    # the command line checks a study's kind before the output layer (and its registry of
-    # kinds) is loaded: the short list it uses must be the registry's
-    from hertzsweep.drivers.study import CASE_KINDS
-
-    assert CASE_KINDS == STUDY_KINDS

@@ -356,7 +356,8 @@ def toml_value(value: Any) -> str:
 # --------------------------------------------------------------------------- datasets
 def datasets_reference() -> str:
     """The dataset kinds, every variable and coordinate, and the global attributes."""
-    from hertzsweep.output import dataset, kinds
+    from hertzsweep.core import kinds
+    from hertzsweep.output import dataset
 
     text = dataset.ATTRIBUTES_FILE.read_text(encoding="utf-8")
     attributes = tomllib.loads(text)

@@ -544,7 +544,7 @@ def summary(ds: xr.Dataset) -> str:
         A dataset of another kind (a branch's, an accuracy run's or a fit's table is
         made from its run, which the dataset does not keep: read its variables).
     """
-    from ..output.kinds import kind_of
+    from ..output.figures import kind_of
 
     kind = kind_of(ds)
     if kind.name not in SUMMARISED:
@@ -667,7 +667,7 @@ def plot(
         An unknown view, a harmonic or sigma the dataset does not hold, a dataset that
         is not hertzsweep's or not complete (named by its file when given one).
     """
-    from ..output.kinds import figure
+    from ..output.figures import figure
     from ..output.plot import UNWRAPPED, WRAPPED, phase_convention
 
     where = os.fspath(ds) if isinstance(ds, str | os.PathLike) else None

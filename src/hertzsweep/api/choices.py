@@ -11,7 +11,7 @@ import importlib
 _SOURCES = {  # name -> (module, name there)
     "EXAMPLES": ("hertzsweep.core.examples", "EXAMPLES"),
     "IMPORT_PRESETS": ("hertzsweep.output.import_options", "PRESETS"),
-    "KINDS": ("hertzsweep.output.kinds", "KINDS"),
+    "KINDS": ("hertzsweep.core.kinds", "KINDS"),
     "RIG_UNITS": ("hertzsweep.core.rig", "UNITS"),
     "STABILITY": ("hertzsweep.core.model", "STABILITY"),
     "format_size": ("hertzsweep.core.checks", "format_size"),

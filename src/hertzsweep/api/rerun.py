@@ -19,6 +19,7 @@ from dataclasses import replace
 from typing import Any
 
 from ..core.config import Scene, apply_overrides, from_command_line, scene_from_dict
+from ..core.kinds import KINDS, RERUN_KINDS, STUDY, STUDY_KINDS, kind_named
 from ..errors import ConfigError, HertzsweepError
 from .runs import (
     Progress,
@@ -68,7 +69,7 @@ def scene_of(config: dict[str, Any], overrides: Mapping[str, Any], source: str) 
 
 
 # --------------------------------------------------------------------------- scene kinds
-def _sweep(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
+def rerun_sweep(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
     return run_sweep(scene, progress)
 
 
@@ -79,22 +80,22 @@ def trace_streams(scene: Scene, command: dict[str, Any]) -> bool:
     return check_trace(scene, *arguments, source="rerun")
 
 
-def _trace(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
+def rerun_trace(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
     w = float(command["frequency_ratio"])
     periods, branch = int(command["periods"]), str(command["branch"])
     samples = command.get("samples_per_period")
     return run_trace(scene, w, periods, branch, samples, progress, sink=sink)
 
 
-def _branch(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
+def rerun_branch(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
     return run_branch(scene, progress)
 
 
-def _random(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
+def rerun_random(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
     return run_random(scene, progress)
 
 
-def _accuracy(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
+def rerun_accuracy(scene: Scene, command: dict[str, Any], progress: Progress, sink: Any) -> Run:
     """The ladder that ran (its settings, reference last) on the scene, with its
     Richardson partner (the reference at half its steps, when it ran) and the scene's own
     setting re-derived from the scene."""
@@ -113,13 +114,8 @@ def _accuracy(scene: Scene, command: dict[str, Any], progress: Progress, sink: A
 
 
 Runner = Callable[[Scene, dict[str, Any], Progress, Any], Run]
-RUNNERS: dict[str, Runner] = {  # kind -> how to run its driver from command_json
-    "sweep": _sweep,
-    "trace": _trace,
-    "branch": _branch,
-    "accuracy": _accuracy,
-    "random": _random,
-}
+RUNNERS: dict[str, Runner] = {name: KINDS[name].rerun for name in RERUN_KINDS}
+"""kind -> how to run its driver from ``command_json`` (``Kind.rerun``)."""
 
 
 # --------------------------------------------------------------------------- studies
@@ -127,7 +123,6 @@ def study_of(config: dict[str, Any], overrides: Mapping[str, Any], source: str) 
     """The study of a study dataset's ``config_json`` (``kind``, ``split_sigma``, ``split_rms``,
     ``grid`` and the resolved base ``scene``), the overrides applied to its base scene."""
     from ..drivers.study import GridAxis, Study, dimension_name
-    from ..output.kinds import STUDY_KINDS
 
     try:
         base = dict(config["scene"])
@@ -159,12 +154,8 @@ def what_to_rerun(attributes: Mapping[str, Any], path: str) -> tuple[str, Runner
     HertzsweepError
         Not a hertzsweep dataset, or a kind no command simulates (measured, fit).
     """
-    from types import SimpleNamespace
-
-    from ..output.kinds import STUDY, kind_of
-
     try:
-        kind = kind_of(SimpleNamespace(attrs=attributes))
+        kind = kind_named(attributes.get("hertzsweep_kind"))
     except HertzsweepError as exc:
         raise exc.with_context(path) from None
     run = RUNNERS.get(kind.name)
@@ -174,4 +165,16 @@ def what_to_rerun(attributes: Mapping[str, Any], path: str) -> tuple[str, Runner
     return kind.name, run
 
 
-__all__ = ["RUNNERS", "json_attribute", "scene_of", "study_of", "trace_streams", "what_to_rerun"]
+__all__ = [
+    "RUNNERS",
+    "json_attribute",
+    "rerun_accuracy",
+    "rerun_branch",
+    "rerun_random",
+    "rerun_sweep",
+    "rerun_trace",
+    "scene_of",
+    "study_of",
+    "trace_streams",
+    "what_to_rerun",
+]

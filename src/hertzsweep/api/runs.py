@@ -23,8 +23,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from .. import __version__
-from ..core.checks import check_record, check_scene, require_excitation
+from ..core.checks import check_record, require_excitation
 from ..core.config import Scene
+from ..core.kinds import KINDS, Kind
 from ..core.model import check_stability
 from .progress import progress_bar
 
@@ -32,7 +33,6 @@ if TYPE_CHECKING:
     import xarray as xr
 
     from ..drivers.study import Engine, Study
-    from ..output.kinds import Kind
 
 TERMINAL = "terminal"  # the command line's bar: shown only when stderr is a terminal
 Progress = bool | str  # False, True or TERMINAL
@@ -46,10 +46,19 @@ def meter(
 
 
 def kind(name: str) -> Kind:
-    """The registry entry of a dataset kind (:data:`hertzsweep.output.kinds.KINDS`)."""
-    from ..output.kinds import KINDS
-
+    """The registry entry of a dataset kind (:data:`hertzsweep.core.kinds.KINDS`)."""
     return KINDS[name]
+
+
+def checked(name: str, scene: Scene) -> Kind:
+    """The kind ``name`` after its scene checks: the scene's excitation is the kind's
+    (:func:`hertzsweep.core.checks.require_excitation`) and it passes the kind's
+    preflight."""
+    entry = KINDS[name]
+    if entry.excitation is not None:
+        require_excitation(scene, entry.excitation, entry.command)
+    entry.preflight(scene)
+    return entry
 
 
 def python_history(call: str) -> str:
@@ -78,7 +87,7 @@ class Run:
     Attributes
     ----------
     kind : Kind
-        The dataset kind (:data:`hertzsweep.output.kinds.KINDS`).
+        The dataset kind (:data:`hertzsweep.core.kinds.KINDS`).
     scene : Scene or None
         The scene it ran (None for measurements).
     result : object
@@ -151,9 +160,7 @@ def run_sweep(scene: Scene, progress: Progress = False, history: str | None = No
     """
     from ..drivers.sweep import dwell_count
 
-    require_excitation(scene, "sine", "sweep")
-    check_scene(scene)
-    sweep = kind("sweep")
+    sweep = checked("sweep", scene)
     with meter(dwell_count(scene), "sweep", progress) as bar:
         result = sweep.run(scene, bar)
     return Run(sweep, scene, result, sweep.build(result, scene, history))
@@ -173,10 +180,8 @@ def run_trace(
     record stream the command line writes a long record into as it is integrated."""
     from ..drivers.trace import trace_count
 
-    require_excitation(scene, "sine", "trace")
-    check_scene(scene)
+    trace = checked("trace", scene)
     check_trace(scene, periods, samples_per_period)
-    trace = kind("trace")
     with meter(trace_count(scene, frequency_ratio, branch), "trace", progress) as bar:
         result = trace.run(
             scene,
@@ -232,9 +237,7 @@ def run_random(scene: Scene, progress: Progress = False, history: str | None = N
     """
     from ..drivers.random import step_count
 
-    require_excitation(scene, "random", "random")
-    check_scene(scene)
-    random = kind("random")
+    random = checked("random", scene)
     with meter(step_count(scene), "random", progress, unit="step") as bar:
         result = random.run(scene, bar)
     return Run(random, scene, result, random.build(result, scene, history))
@@ -264,9 +267,7 @@ def run_branch(scene: Scene, progress: Progress = False, history: str | None = N
     """Periodic orbits by shooting and continuation (``hertzsweep branch``)."""
     from ..drivers.continuation import progress_total
 
-    require_excitation(scene, "sine", "branch")
-    check_scene(scene)
-    branch = kind("branch")
+    branch = checked("branch", scene)
     with meter(progress_total(scene), "branch", progress, unit="%") as bar:
         result = branch.run(scene, bar)
     return Run(branch, scene, result, branch.build(result, scene, history))
@@ -274,8 +275,7 @@ def run_branch(scene: Scene, progress: Progress = False, history: str | None = N
 
 def check_accuracy(scene: Scene) -> None:
     """The checks of an accuracy run: the scene's, and its own setting stable."""
-    require_excitation(scene, "sine", "accuracy")
-    check_scene(scene)
+    checked("accuracy", scene)
     check_stability(scene)
 
 
@@ -518,10 +518,9 @@ def run_fit(
     """The model's parameters identified from measurements (``hertzsweep fit``)."""
     from ..drivers.fit import expected_evaluations
 
-    check_scene(scene)
+    fit = checked("fit", scene)
     data, name = read_measurements(measured)
     free = [key.strip() for key in free if key.strip()]
-    fit = kind("fit")
     total = expected_evaluations(len(free), compare_laws)
     with meter(total, "fit", progress, unit="evaluation") as bar:
         counter = _Meter(bar, total)
@@ -653,15 +652,15 @@ def export(
     HertzsweepError
         An unknown format, a dataset of another kind, a lock-in CSV without a sensitivity.
     """
+    from ..core.kinds import EXPORT_KINDS, kind_named, names
     from ..errors import HertzsweepError
-    from ..output.kinds import kind_of
 
     if format not in EXPORT_FORMATS:
         known = ", ".join(EXPORT_FORMATS)
         raise HertzsweepError(f"--format: expected one of {known}, got {format!r}")
-    name = kind_of(ds).name
-    if name not in ("sweep", "measured", "fit"):
-        raise HertzsweepError(f"cannot export a {name} dataset (sweep, measured and fit only)")
+    name = kind_named(ds.attrs.get("hertzsweep_kind")).name
+    if name not in EXPORT_KINDS:
+        raise HertzsweepError(f"cannot export a {name} dataset ({names(EXPORT_KINDS)} only)")
     if format in ("uff58b", "uff58"):
         from ..output.uff import export_uff
 

@@ -2,9 +2,10 @@
 command's module only when that command runs.
 
 :data:`COMMANDS` is the one list of commands: the module that defines each and the line
-``hertzsweep --help`` shows for it. Listing the commands (``--help``) imports none of
-them, and a command imports only its own module, so ``hertzsweep rig`` never loads the
-compiler, xarray or matplotlib, and ``hertzsweep sweep`` never loads matplotlib or dask.
+``hertzsweep --help`` shows for it (a dataset kind's from its registry entry). Listing the
+commands (``--help``) imports none of them, and a command imports only its own module, so
+``hertzsweep rig`` never loads the compiler, xarray or matplotlib, and ``hertzsweep sweep``
+never loads matplotlib or dask.
 """
 
 from __future__ import annotations
@@ -14,25 +15,29 @@ import importlib
 import click
 
 from .. import __version__
+from ..api.choices import KINDS
 
-COMMANDS: dict[str, tuple[str, str]] = {  # name -> (module in hertzsweep.cli, help line)
+TOOLS: dict[str, tuple[str, str]] = {  # the commands that make no dataset kind of their own
     "rig": ("commands", "Derived constants of a rig, or of a scene's rig."),
     "validate": ("commands", "Check a scene: exit 0, or one line naming file, key, reason."),
-    "sweep": ("sweep", "Stepped-sine sweeps, up and/or down, for every sigma."),
-    "random": ("random", "Random excitation: spectra, statistics, contact loss of N/F_s."),
-    "trace": ("trace", "Settled time history at one frequency, its spectrum, its flights."),
-    "branch": ("branch", "Periodic orbits by shooting and continuation: stability, folds."),
-    "study": ("study", "A grid of scenes on a local pool or a Dask cluster."),
-    "accuracy": ("accuracy", "Error against cost for the solver settings."),
     "plot": ("plot", "The paper-style figure of any dataset."),
     "compare": ("compare", "A run against a reference dataset (exit 1 outside tolerance)."),
     "paper": ("paper", "The paper's figures and validation table."),
     "rerun": ("rerun", "Run again the command that made a dataset, from the dataset."),
-    "import": ("importing", "Measurements (CSV, UFF 58/58b, lock-in tables) into a dataset."),
     "export": ("importing", "A dataset as UFF 58/58b or CSV, for the tools rigs use."),
-    "fit": ("fit", "Fit f0, the damping ratio and the contact law to measurements."),
     "bench": ("bench", "The project's own speed figures."),
 }
+ORDER = (  # of ``hertzsweep --help``
+    "rig", "validate", "sweep", "random", "trace", "branch", "study", "accuracy", "plot",
+    "compare", "paper", "rerun", "import", "export", "fit", "bench",
+)  # fmt: skip
+COMMANDS: dict[str, tuple[str, str]] = {  # name -> (module in hertzsweep.cli, help line)
+    **TOOLS,
+    **{kind.command: (kind.cli_module, kind.help) for kind in KINDS.values()},
+}
+COMMANDS = {name: COMMANDS[name] for name in ORDER}
+"""Every command: the tools, and the command of each dataset kind
+(:data:`hertzsweep.core.kinds.KINDS`), in the order of :data:`ORDER`."""
 
 
 class LazyGroup(click.Group):

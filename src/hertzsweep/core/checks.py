@@ -56,6 +56,7 @@ from .config import (
     rig_key_furthest,
 )
 from .excitation import forcing_phases, process_periods
+from .kinds import commands_of
 from .model import STABILITY, omega_max, stability_limit, stability_reason
 from .rig import RigConstants, derive
 
@@ -765,9 +766,6 @@ def load_checked_scene(
     return scene, check_scene(scene)
 
 
-RUNS_OF = {"sine": "sweep, trace, branch and accuracy", "random": "random"}  # commands by kind
-
-
 def require_excitation(scene: Scene, kind: str, command: str) -> None:
     """Refuse a scene whose excitation is not ``kind`` for ``command`` (a random scene
     runs with ``hertzsweep random``, a sine scene with the others).
@@ -779,7 +777,8 @@ def require_excitation(scene: Scene, kind: str, command: str) -> None:
     """
     given = scene.excitation.kind
     if given != kind:
-        reason = f"{command} runs a {kind} excitation; a {given} scene runs with {RUNS_OF[given]}"
+        runs = commands_of(given)
+        reason = f"{command} runs a {kind} excitation; a {given} scene runs with {runs}"
         raise ConfigError(scene.source, "excitation.kind", reason)
 
 

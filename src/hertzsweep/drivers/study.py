@@ -69,15 +69,14 @@ from ..core.config import (
     same_file,
     scene_from_dict,
 )
+from ..core.kinds import KINDS, RMS_KEY, SIGMA_KEY, STUDY_KINDS
 from ..errors import ConfigError, HertzsweepError
 
 DEFAULT_KIND = "sweep"  # a study file without `kind` (the SPEC's default)
-SIGMA_KEY = "excitation.sigma"
-RMS_KEY = "excitation.rms"
-LEVEL_KEYS = {"sweep": SIGMA_KEY, "branch": SIGMA_KEY, "random": RMS_KEY}  # a kind's levels:
-# the list-valued key a case's run takes whole (a dimension of its result)
+LEVEL_KEYS = {name: KINDS[name].level_key for name in STUDY_KINDS}  # a kind's levels: the
+# list-valued key a case's run takes whole (a dimension of its result)
 LEVEL_DIMS = {SIGMA_KEY: "sigma", RMS_KEY: "rms"}  # their dimensions, named as in the parts
-EXCITATION_OF = {"sweep": "sine", "branch": "sine", "random": "random"}  # a kind's scenes
+EXCITATION_OF = {name: KINDS[name].excitation for name in STUDY_KINDS}  # a kind's scenes
 STUDY_KEYS = ("kind", "scene", "grid", "split_sigma", "split_rms", "split_realisations")
 REALISATIONS_KEY = "random.realisations"
 FIRST_REALISATION_KEY = "random.first_realisation"
@@ -90,9 +89,7 @@ PRELOADED = (  # imported once by the local pool's fork server, inherited by eve
     "hertzsweep.drivers.random",
     "hertzsweep.drivers.preload",  # and the kernels loaded from numba's cache
 )
-CASE_KINDS = ("sweep", "branch", "random")  # what one case of a study can be (the dataset
-# kinds with a case driver, hertzsweep.output.kinds.STUDY_KINDS): known before anything heavy
-# loads
+CASE_KINDS = STUDY_KINDS  # what one case of a study can be (hertzsweep.core.kinds)
 
 Runner = Callable[[Scene], Any]  # a driver function: one case's scene -> its result
 

@@ -402,6 +402,21 @@ def record_layout(scene: Scene) -> tuple[int, Callable[[np.ndarray], np.ndarray]
 
 
 # --------------------------------------------------------------------------- driver
+def _settings(
+    scene: Scene, frequency_ratio: float, periods: int, branch: str, samples_per_period: int | None
+) -> tuple[float, int, int, int, float]:
+    """A trace's arguments checked: ``(w, periods, samples_per_period, stride,
+    sample_step)``, the stride in steps and the sample step in excitation phase."""
+    check_trace(frequency_ratio, periods, branch)
+    check_record_periods(scene, periods)
+    samples_per_period = resolve_samples_per_period(scene, samples_per_period)
+    w = float(frequency_ratio)
+    check_stability(scene, lowest=min(w, float(scene.sweep.frequency_ratios.min())))
+    stride = scene.solver.steps_per_period // samples_per_period
+    sample_step = scheme.step_size(w, scene.solver.steps_per_period) * stride
+    return w, int(periods), samples_per_period, stride, sample_step
+
+
 def run_trace(
     scene: Scene,
     frequency_ratio: float,
@@ -449,14 +464,8 @@ def run_trace(
     StabilityError, IntegrationError
         As for a sweep.
     """
-    check_trace(frequency_ratio, periods, branch)
-    check_record_periods(scene, periods)
-    samples_per_period = resolve_samples_per_period(scene, samples_per_period)
-    w = float(frequency_ratio)
-    check_stability(scene, lowest=min(w, float(scene.sweep.frequency_ratios.min())))
-    periods = int(periods)
-    stride = scene.solver.steps_per_period // samples_per_period
-    sample_step = scheme.step_size(w, scene.solver.steps_per_period) * stride
+    settings = _settings(scene, frequency_ratio, periods, branch, samples_per_period)
+    w, periods, samples_per_period, stride, sample_step = settings
     sigma = np.asarray(scene.excitation.sigma, dtype=float)
     harmonics = np.asarray(scene.lockin.harmonics, dtype=np.float64)
     samples = periods * samples_per_period

@@ -47,6 +47,7 @@ import numpy as np
 
 from .. import __version__
 from ..core.config import RigConfig, Scene
+from ..core.kinds import KINDS
 from ..core.rig import RigConstants, derive
 from ..drivers.readings import HARMONIC_FIELDS, SCALAR_FIELDS
 from .frame import Frame, Variable, load_xarray
@@ -67,44 +68,8 @@ REFERENCES = (  # the paper whose rig, model and figures hertzsweep reproduces
     "vibrations of an impacting Hertzian contact. Part 1: harmonic excitation, Journal of "
     "Sound and Vibration 265 (2003) 289-307"
 )
-SUMMARIES = {  # kind -> the ACDD ``summary`` of its datasets: what one holds, in a sentence
-    "sweep": (
-        "Lock-in readings of the normalised contact force (harmonic amplitudes and phases, "
-        "extremes, loss of contact) at each dwell of stepped-sine sweeps up and down in "
-        "frequency, for each input level, with the jump frequencies."
-    ),
-    "trace": (
-        "Time history of the displacement, velocity and contact force at one frequency, "
-        "with its spectrum, its lock-in readings and its flights (losses of contact)."
-    ),
-    "branch": (
-        "Periodic orbits followed in frequency by shooting and pseudo-arclength "
-        "continuation, for each input level: their readings, Floquet multipliers, "
-        "stability and bifurcations."
-    ),
-    "accuracy": (
-        "Errors of a sweep against a reference of finer solver settings, with the cost of "
-        "each setting, the observed order of the scheme and the recommended setting."
-    ),
-    "study": (
-        "The results of one kind of run over a grid of scene values, one case per grid "
-        "point, failed cases marked."
-    ),
-    "measured": (
-        "Measurements of a stepped-sine test (harmonic amplitudes and phases, or jump "
-        "frequencies) in the layout of a sweep, read from a CSV file."
-    ),
-    "fit": (
-        "Scene values identified by least squares from measurements, with their standard "
-        "errors, the fitted model at every measured point and the residuals."
-    ),
-    "random": (
-        "Spectra (PSD, FRF, coherence) and statistics (moments, extremes, probability "
-        "density, loss of contact and flights) of the normalised contact force under "
-        "band-limited Gaussian excitation, for each input RMS level: means over independent "
-        "realisations with their standard errors."
-    ),
-}
+SUMMARIES = {name: kind.about for name, kind in KINDS.items()}
+"""kind -> the ACDD ``summary`` of its datasets (:attr:`hertzsweep.core.kinds.Kind.about`)."""
 RIG_ATTRIBUTES = (  # the rig's attributes: its table (Scene.attributes), its derived constants
     "rig_geometry",
     *(field.name for field in fields(RigConfig) if field.name != "geometry"),
@@ -529,6 +494,19 @@ def _padded(rows: Sequence[Any], width: int, fill: Any = np.nan, dtype: Any = fl
     return out
 
 
+def _branch_coords(result: BranchResult, counts: dict[str, int]) -> dict[str, tuple]:
+    """The branch dataset's coordinates: ``sigma``, ``harmonic``, and an index of each of
+    ``counts`` (``point``, ``multiplier``, ``bifurcation``, and ``branch`` when the sigmas
+    have several)."""
+    coords = {
+        "sigma": ("sigma", result.sigma, attrs("sigma")),
+        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=ORDER), attrs("harmonic")),
+    }
+    for name, count in counts.items():
+        coords[name] = (name, np.arange(count, dtype=INDEX), attrs(name))
+    return coords
+
+
 def branch_dataset(result: BranchResult, scene: Scene, history: str | None = None) -> Frame:
     """The branch dataset of a :class:`~hertzsweep.drivers.continuation.BranchResult`.
 
@@ -609,19 +587,8 @@ def branch_dataset(result: BranchResult, scene: Scene, history: str | None = Non
                 per_branch(_parent_w(families, n_branches), np.nan, float),
             ),
         )
-    coords = {
-        "sigma": ("sigma", result.sigma, attrs("sigma")),
-        "point": ("point", np.arange(n_points, dtype=INDEX), attrs("point")),
-        "harmonic": ("harmonic", np.asarray(result.harmonics, dtype=ORDER), attrs("harmonic")),
-        "multiplier": (
-            "multiplier",
-            np.arange(multipliers.shape[-1], dtype=INDEX),
-            attrs("multiplier"),
-        ),
-        "bifurcation": ("bifurcation", np.arange(n_found, dtype=INDEX), attrs("bifurcation")),
-    }
-    if follow:
-        coords["branch"] = ("branch", np.arange(n_branches, dtype=INDEX), attrs("branch"))
+    counts = {"point": n_points, "multiplier": multipliers.shape[-1], "bifurcation": n_found}
+    coords = _branch_coords(result, {**counts, **({"branch": n_branches} if follow else {})})
     title = (
         "Periodic orbits of a preloaded Hertzian contact by shooting and pseudo-arclength "
         "continuation"

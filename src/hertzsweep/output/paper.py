@@ -1,7 +1,7 @@
 """``make paper`` (``hertzsweep paper``): the paper's Figures 3-17 and its numbers beside ours.
 
 The folder's ``paper.toml`` lists the runs (one scene or study each, with the kind of
-dataset it makes: any of :data:`hertzsweep.output.kinds.KINDS`) and the figures drawn from
+dataset it makes: any of :data:`hertzsweep.core.kinds.KINDS`) and the figures drawn from
 their datasets. Every dataset is written to ``OUT/NAME.nc`` (atomically), every figure to
 ``OUT/FIGURE.png``, and ``OUT/validation.md`` sets the numbers the paper reports beside
 ours (:data:`PAPER`, :func:`measurements`, :func:`validation_table`). ``--quick`` applies
@@ -33,6 +33,7 @@ from ..core.config import (
     read_toml,
     scene_from_dict,
 )
+from ..core.kinds import KINDS, SCENE, STUDY, STUDY_KINDS, Kind
 from ..core.lockin import first_harmonic_index
 from ..core.rig import RigConstants, derive
 from ..drivers.study import LocalPool, expand, load_study
@@ -40,8 +41,8 @@ from ..drivers.sweep import run_sweep
 from ..errors import ConfigError, HertzsweepError
 from . import plot
 from .dataset import atomic_path, history_line, write_atomic
+from .figures import check_view, figure
 from .frame import as_xarray, load_xarray
-from .kinds import KINDS, SCENE, STUDY, STUDY_KINDS, Kind, check_view, figure
 from .study import failure_lines, parts_folder
 
 xr = load_xarray()  # xarray with its dask probe kept quiet

@@ -2,7 +2,7 @@
 
 Builders: a dataset in, a :class:`matplotlib.figure.Figure` out, drawn on an Agg canvas
 (no screen, no pyplot state); :func:`write_figure` saves one atomically. The builder of a
-dataset is that of its ``hertzsweep_kind`` (:func:`hertzsweep.output.kinds.figure`):
+dataset is that of its ``hertzsweep_kind`` (:func:`hertzsweep.output.figures.figure`):
 
 - ``sweep``: amplitude and phase of each harmonic against the frequency ratio, up sweeps
   filled markers, down sweeps open ones, one colour per sigma (Figures 3, 4, 5, 9, 10);

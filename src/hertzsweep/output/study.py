@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..core.config import Scene, scene_from_dict
+from ..core.kinds import KINDS
 from ..core.rig import derive
 from ..drivers.study import (
     LEVEL_DIMS,
@@ -185,6 +186,16 @@ class PartWriter:
             tmp.write_text(json.dumps(record, indent=2, default=json_default))
         part_path(self.folder, case).unlink(missing_ok=True)
         return path
+
+
+def run_kind_parts(
+    study: Study, cases: Sequence[Case], output: str | os.PathLike, engine: Engine, **options: Any
+) -> StudyRun:
+    """The study kind's driver: :func:`run_parts` with the case driver and the dataset
+    builder of the study's kind (:data:`hertzsweep.core.kinds.KINDS`)."""
+    case_kind = KINDS[study.kind]
+    runner = case_kind.case.resolve()
+    return run_parts(study, cases, output, engine, runner, case_kind.build, **options)
 
 
 def run_parts(

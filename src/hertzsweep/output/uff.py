@@ -91,6 +91,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import __version__
+from ..core.kinds import EXPORT_KINDS, KINDS
 from ..core.lockin import order_label
 from ..drivers.fit import SweepMeasurements
 from ..errors import HertzsweepError, MeasurementError
@@ -100,11 +101,6 @@ from .paths import atomic_path, sync_path
 if TYPE_CHECKING:  # xarray is imported by whoever made the dataset
     import xarray as xr
 
-KINDS = {  # dataset kind -> (amplitude variable, phase variable) exported
-    "sweep": ("amplitude", "phase"),
-    "measured": ("amplitude", "phase"),
-    "fit": ("model_amplitude", "model_phase"),
-}
 DIRECTION_CODES = {"up": 1, "down": 2}  # ver_num of each sweep direction
 H1_FUNCTION = 4  # func_type of harmonic 1: a frequency response function
 ORDER_FUNCTION = 0  # func_type of harmonics k >= 2: general (not an FRF a modal code fits)
@@ -258,12 +254,12 @@ def export_uff(ds: xr.Dataset, path: str | os.PathLike, binary: bool = True) -> 
 def _functions(ds: xr.Dataset) -> tuple[str, list[_Set], dict[str, Any]]:
     """The dataset's kind, its functions to write and the counts of points."""
     kind = ds.attrs.get("hertzsweep_kind")
-    if kind not in KINDS:
+    if kind not in EXPORT_KINDS:
         raise HertzsweepError(
             f"UFF export: expected a sweep, measured or fit dataset, got "
             f"{kind or 'a non-hertzsweep'} dataset"
         )
-    amplitude_name, phase_name = KINDS[kind]
+    amplitude_name, phase_name = KINDS[kind].exports
     if amplitude_name not in ds or "direction" not in ds.dims or "sigma" not in ds.dims:
         what = "jump frequencies" if ds.attrs.get("measured_kind") == "jumps" else "no sweeps"
         raise HertzsweepError(f"UFF export: the {kind} dataset holds {what}, no sweep to write")
