@@ -10,6 +10,7 @@ import pytest
 
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.drivers.trace import run_trace
+from hertzsweep.io.measured import measured_dataset, read_measurements
 from hertzsweep.output.dataset import (
     RIG_ATTRIBUTES,
     SUMMARIES,
@@ -18,7 +19,6 @@ from hertzsweep.output.dataset import (
     trace_dataset,
     write_atomic,
 )
-from hertzsweep.output.measured import measured_dataset, read_measurements
 
 from .conftest import CONFIGS, make_scene
 

@@ -28,9 +28,9 @@ from hertzsweep.drivers.fit import (
 )
 from hertzsweep.drivers.sweep import run_sweep
 from hertzsweep.errors import ConfigError
+from hertzsweep.io.measured import fit_dataset
 from hertzsweep.output.dataset import open_dataset
 from hertzsweep.output.figures import figure
-from hertzsweep.output.measured import fit_dataset
 
 from .conftest import CONFIGS, PAPER_RIG, make_scene, run_cli
 

@@ -7,14 +7,14 @@ import pytest
 import xarray as xr
 
 from hertzsweep.drivers.fit import JumpMeasurements, SweepMeasurements
-from hertzsweep.output import plot
-from hertzsweep.output.dataset import global_attributes, open_dataset, write_atomic
-from hertzsweep.output.figures import figure
-from hertzsweep.output.measured import (
+from hertzsweep.io.measured import (
     measured_dataset,
     measurements_from_dataset,
     read_measurements,
 )
+from hertzsweep.output import plot
+from hertzsweep.output.dataset import global_attributes, open_dataset, write_atomic
+from hertzsweep.output.figures import figure
 
 from .conftest import CONFIGS, make_scene, run_cli
 

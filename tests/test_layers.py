@@ -1,10 +1,11 @@
 """The shape of the package, read from its source (an ast walk, nothing imported).
 
-- Layers: core -> kernels -> drivers -> output -> api -> cli; a module imports only from
-  its own layer or those before it (``hertzsweep.errors`` and the package root, which holds
-  the version, from anywhere). Imports inside functions count, except the package root's:
-  its module-level ``__getattr__`` hands out the public names of ``hertzsweep.api`` and
-  ``hertzsweep.errors`` on first use (PEP 562), which is no dependency of the layers.
+- Layers: core -> kernels -> drivers -> output -> io -> jobs -> api -> cli; a module
+  imports only from its own layer or those before it (``hertzsweep.errors`` and the
+  package root, which holds the version, from anywhere). Imports inside functions count,
+  except the package root's: its module-level ``__getattr__`` hands out the public names
+  of ``hertzsweep.api`` and ``hertzsweep.errors`` on first use (PEP 562), which is no
+  dependency of the layers.
 - The command line reaches the engine only through the API: a ``cli`` module imports
   ``hertzsweep.api`` (and its modules), ``hertzsweep.errors``, the package root and
   ``cli`` modules, nothing else of the package.
@@ -25,7 +26,16 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "hertzsweep"
-LAYERS = ("core", "kernels", "drivers", "output", "api", "cli")  # each may use those before
+LAYERS = (
+    "core",
+    "kernels",
+    "drivers",
+    "output",
+    "io",
+    "jobs",
+    "api",
+    "cli",
+)  # each uses those before
 CLI_MAY_IMPORT = ("api", "cli")  # the layers a cli module may import (besides ANYWHERE)
 ANYWHERE = {PACKAGE, f"{PACKAGE}.errors"}  # the package root (version) and the exceptions
 ENTRY = f"{PACKAGE}.__main__"  # ``python -m hertzsweep``: above every layer

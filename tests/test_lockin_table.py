@@ -11,15 +11,15 @@ import pytest
 
 import hertzsweep as hs
 from hertzsweep.errors import HertzsweepError, MeasurementError
-from hertzsweep.output import lockin_table
-from hertzsweep.output.import_options import ImportOptions
-from hertzsweep.output.lockin_table import (
+from hertzsweep.io import lockin_table
+from hertzsweep.io.import_options import ImportOptions
+from hertzsweep.io.lockin_table import (
     LOCKIN_HEADER,
     read_lockin_table,
     write_lockin_csv,
     write_measurement_csv,
 )
-from hertzsweep.output.measured import measured_dataset, read_measurements
+from hertzsweep.io.measured import measured_dataset, read_measurements
 
 from .conftest import CONFIGS
 

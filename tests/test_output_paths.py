@@ -426,7 +426,7 @@ def small_study(tmp_path: Path) -> Path:
 def test_study_part_that_cannot_be_written_is_a_failed_case(tmp_path, capsys, monkeypatch):
     # the first part's write fails (no space): that case is recorded as failed (one
     # line, its error record written), the other is written, exit 1 as for a failed case
-    from hertzsweep.output import study as study_output
+    from hertzsweep.jobs import study as study_output
 
     real_write = study_output.write_atomic
     failed = []
@@ -455,7 +455,7 @@ def test_study_with_no_part_written_leaves_the_earlier_output_said(tmp_path, cap
     # every part and every error record fails to be written: each case is a failed case
     # (saying its record could not be written), no output; the earlier OUT.nc is left as
     # it was and the last line says it is an earlier run's
-    from hertzsweep.output import study as study_output
+    from hertzsweep.jobs import study as study_output
 
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(args[-1]))

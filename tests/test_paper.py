@@ -14,9 +14,9 @@ from hertzsweep.core.config import load_scene
 from hertzsweep.core.kinds import KINDS
 from hertzsweep.core.model import check_stability
 from hertzsweep.errors import ConfigError
-from hertzsweep.output import paper
+from hertzsweep.jobs import paper
+from hertzsweep.jobs.paper import AGREE, Ours, Reported, validation_table
 from hertzsweep.output.dataset import open_dataset
-from hertzsweep.output.paper import AGREE, Ours, Reported, validation_table
 
 from .conftest import CONFIGS, run_cli
 

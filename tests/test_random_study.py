@@ -18,15 +18,15 @@ from hertzsweep.core.kinds import STUDY_KINDS
 from hertzsweep.drivers.random import STATISTICS, merge, run_random
 from hertzsweep.drivers.study import expand, realisation_groups, whole_cases
 from hertzsweep.drivers.study import load_study as load_study_file
-from hertzsweep.output import realisations as split_parts
-from hertzsweep.output.dataset import open_dataset
-from hertzsweep.output.study import (
+from hertzsweep.jobs import realisations as split_parts
+from hertzsweep.jobs.study import (
     part_path,
     parts_folder,
     read_part,
     resumable,
     study_dataset,
 )
+from hertzsweep.output.dataset import open_dataset
 
 from .conftest import PAPER_RIG, run_cli
 from .test_study import interrupted, snapshot, start

@@ -16,8 +16,8 @@ from hertzsweep.core.kinds import STUDY_KINDS
 from hertzsweep.drivers.study import Engine, canonical_json, case_hash, expand, run_case, run_study
 from hertzsweep.drivers.study import load_study as load_study_file
 from hertzsweep.drivers.sweep import run_sweep
+from hertzsweep.jobs.study import parts_folder, read_part
 from hertzsweep.output.dataset import open_dataset
-from hertzsweep.output.study import parts_folder, read_part
 
 from .conftest import CONFIGS, PAPER_RIG, run_cli
 

@@ -13,9 +13,9 @@ import pytest
 
 import hertzsweep as hs
 from hertzsweep.errors import HertzsweepError, MeasurementError
-from hertzsweep.output.import_options import ImportOptions
-from hertzsweep.output.measured import measured_dataset
-from hertzsweep.output.uff import export_uff, read_uff
+from hertzsweep.io.import_options import ImportOptions
+from hertzsweep.io.measured import measured_dataset
+from hertzsweep.io.uff import export_uff, read_uff
 
 from .conftest import CONFIGS
 
@@ -174,7 +174,7 @@ def test_nothing_to_export_writes_nothing(small_sweep, tmp_path):
 
 
 def test_pyuff_is_imported_only_when_used():
-    code = "import sys, hertzsweep.output.uff; print('pyuff' in sys.modules)"
+    code = "import sys, hertzsweep.io.uff; print('pyuff' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.stdout.strip() == "False"
 

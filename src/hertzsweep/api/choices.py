@@ -10,7 +10,7 @@ import importlib
 
 _SOURCES = {  # name -> (module, name there)
     "EXAMPLES": ("hertzsweep.core.examples", "EXAMPLES"),
-    "IMPORT_PRESETS": ("hertzsweep.output.import_options", "PRESETS"),
+    "IMPORT_PRESETS": ("hertzsweep.io.import_options", "PRESETS"),
     "KINDS": ("hertzsweep.core.kinds", "KINDS"),
     "RIG_UNITS": ("hertzsweep.core.rig", "UNITS"),
     "STABILITY": ("hertzsweep.core.model", "STABILITY"),

@@ -358,8 +358,8 @@ def run_study(
     there and readable, ``stop_requested`` (a callable returning a signal number, 0 while
     none) ends the run early, the finished parts kept."""
     from ..drivers.study import case_unit, expand
+    from ..jobs.study import failure_lines, resumable
     from ..output.paths import parts_folder
-    from ..output.study import failure_lines, resumable
 
     cases = expand(study)
     study_kind = kind("study")
@@ -464,7 +464,7 @@ def engine_for(workers: int | None = None, scheduler: str | None = None) -> Engi
 def run_import(path: str | os.PathLike, options: Any = None, history: str | None = None) -> Run:
     """Measurements of a file (hertzsweep's CSV, UFF 58/58b, a lock-in table) into a
     ``measured`` dataset (``hertzsweep import``); ``options``, an
-    :class:`~hertzsweep.output.import_options.ImportOptions`."""
+    :class:`~hertzsweep.io.import_options.ImportOptions`."""
     measured = kind("measured")
     data = measured.run(os.fspath(path), options)
     return Run(measured, None, data, measured.build(data, None, history))
@@ -475,12 +475,12 @@ DATASET_SUFFIXES = (".nc", ".nc4", ".cdf")  # measurements read as a dataset; el
 
 def read_measurements(measured: Any) -> tuple[Any, str]:
     """The measurements of a measured dataset's file (by the suffix), of any measurement
-    file :func:`hertzsweep.output.formats.read_any` reads (its levels in the file), or of a
+    file :func:`hertzsweep.io.formats.read_any` reads (its levels in the file), or of a
     measured :class:`xarray.Dataset`; and their name (the file, absolute)."""
     from pathlib import Path
 
-    from ..output.formats import read_any
-    from ..output.measured import measurements_from_dataset
+    from ..io.formats import read_any
+    from ..io.measured import measurements_from_dataset
 
     if not isinstance(measured, str | os.PathLike):
         return measurements_from_dataset(measured, "<dataset>"), "<dataset>"
@@ -542,8 +542,8 @@ if TYPE_CHECKING:
 
 
 def fit_json(result: Any, output: str) -> dict[str, Any]:
-    """``hertzsweep fit --json``'s object (:func:`hertzsweep.output.measured.fit_json`)."""
-    from ..output.measured import fit_json as as_json
+    """``hertzsweep fit --json``'s object (:func:`hertzsweep.io.measured.fit_json`)."""
+    from ..io.measured import fit_json as as_json
 
     return as_json(result, output)
 
@@ -601,8 +601,8 @@ def paper(
     config_dir: str | os.PathLike, out_dir: str | os.PathLike, quick: bool, echo: Any
 ) -> None:
     """The paper's figures and validation table (``hertzsweep paper``,
-    :func:`hertzsweep.output.paper.run_paper`), each step's line given to ``echo``."""
-    from ..output.paper import run_paper
+    :func:`hertzsweep.jobs.paper.run_paper`), each step's line given to ``echo``."""
+    from ..jobs.paper import run_paper
 
     run_paper(config_dir, out_dir, quick, echo=echo)
 
@@ -615,10 +615,10 @@ def bench(quick: bool = False) -> dict[str, Any]:
 
 
 def import_options(rig: str | os.PathLike | None = None, **values: Any) -> Any:
-    """The :class:`~hertzsweep.output.import_options.ImportOptions` of the given values (None:
+    """The :class:`~hertzsweep.io.import_options.ImportOptions` of the given values (None:
     not given); ``rig``, a rig or scene file whose moving mass converts a UFF
     accelerance, mobility or receptance."""
-    from ..output.import_options import ImportOptions
+    from ..io.import_options import ImportOptions
 
     given = {key: value for key, value in values.items() if value is not None}
     if rig is not None:
@@ -642,9 +642,9 @@ def export(
     static_load: float | None = None,
 ) -> Any:
     """Write a sweep, measured or fit dataset in a measurement format (``hertzsweep
-    export``): UFF 58b or 58 (:func:`hertzsweep.output.uff.export_uff`), hertzsweep's
+    export``): UFF 58b or 58 (:func:`hertzsweep.io.uff.export_uff`), hertzsweep's
     measurement CSV or a lock-in-style CSV in volts RMS
-    (:mod:`hertzsweep.output.lockin_table`); returns the report of the points written
+    (:mod:`hertzsweep.io.lockin_table`); returns the report of the points written
     and left out.
 
     Raises
@@ -662,10 +662,10 @@ def export(
     if name not in EXPORT_KINDS:
         raise HertzsweepError(f"cannot export a {name} dataset ({names(EXPORT_KINDS)} only)")
     if format in ("uff58b", "uff58"):
-        from ..output.uff import export_uff
+        from ..io.uff import export_uff
 
         return export_uff(ds, path, binary=format == "uff58b")
-    from ..output import lockin_table
+    from ..io import lockin_table
 
     if format == "csv":
         return lockin_table.write_measurement_csv(ds, path)

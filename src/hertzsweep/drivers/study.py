@@ -30,7 +30,7 @@ fewest ``random.realisations`` of any case): each case then runs as G sub-cases
 most one, ``random.first_realisation`` and ``random.realisations`` set), each an ordinary
 case of the engine (its own hash, part, resume, failure); their parts are merged into the
 case's dataset, bit for bit that of the unsplit case
-(:func:`hertzsweep.output.realisations.merged_part`).
+(:func:`hertzsweep.jobs.realisations.merged_part`).
 
 A case is identified by the sha256 of its resolved scene's canonical JSON
 (``Scene.attributes()`` and the kind, :func:`case_hash`). Cases run on an :class:`Engine`:
@@ -40,7 +40,7 @@ function of the study's kind (given by the caller), so the results are identical
 
 This module runs cases to *results* and writes nothing: :func:`run_study` hands each
 finished case to a callable ``on_case(case, outcome)`` of the caller's, which keeps it
-(:mod:`hertzsweep.output.study` writes it to ``OUT.parts/<hash>.nc``).
+(:mod:`hertzsweep.jobs.study` writes it to ``OUT.parts/<hash>.nc``).
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ from ..drivers.fit import (
     SweepMeasurements,
 )
 from ..errors import ConfigError, HertzsweepError, MeasurementError
-from .dataset import (
+from ..output.dataset import (
     CONVENTIONS,
     REFERENCES,
     SUMMARIES,
@@ -54,7 +54,7 @@ from .dataset import (
     ordered_attributes,
     provenance,
 )
-from .frame import load_xarray
+from ..output.frame import load_xarray
 
 xr = load_xarray()  # xarray with its dask probe kept quiet
 

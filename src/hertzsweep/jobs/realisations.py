@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..core.config import Scene
-from .dataset import open_dataset, random_dataset, write_atomic
-from .frame import Frame
+from ..output.dataset import open_dataset, random_dataset, write_atomic
+from ..output.frame import Frame
 
 if TYPE_CHECKING:
     import xarray as xr

@@ -1,7 +1,7 @@
 """The options of a measurement file's import (:class:`ImportOptions`): how its numbers
 become the peak harmonics of N/F_s in the SPEC's convention, and the presets of the
 instruments whose files hertzsweep knows (:data:`PRESETS`). The conversions are given in
-:mod:`hertzsweep.output.formats`.
+:mod:`hertzsweep.io.formats`.
 """
 
 from __future__ import annotations

@@ -39,10 +39,10 @@ from ..core.rig import RigConstants, derive
 from ..drivers.study import LocalPool, expand, load_study
 from ..drivers.sweep import run_sweep
 from ..errors import ConfigError, HertzsweepError
-from . import plot
-from .dataset import atomic_path, history_line, write_atomic
-from .figures import check_view, figure
-from .frame import as_xarray, load_xarray
+from ..output import plot
+from ..output.dataset import atomic_path, history_line, write_atomic
+from ..output.figures import check_view, figure
+from ..output.frame import as_xarray, load_xarray
 from .study import failure_lines, parts_folder
 
 xr = load_xarray()  # xarray with its dask probe kept quiet

@@ -1,9 +1,9 @@
 """Measurement files in the formats rigs use, found by their content: hertzsweep's own CSV
-(:mod:`hertzsweep.output.measured`), Universal File Format dataset 58 and 58b
-(:mod:`hertzsweep.output.uff`) and lock-in tables, CSV or JSON rows
-(:mod:`hertzsweep.output.lockin_table`), read with the options that turn a file's numbers
+(:mod:`hertzsweep.io.measured`), Universal File Format dataset 58 and 58b
+(:mod:`hertzsweep.io.uff`) and lock-in tables, CSV or JSON rows
+(:mod:`hertzsweep.io.lockin_table`), read with the options that turn a file's numbers
 into the peak harmonics of N/F_s in the SPEC's convention
-(:class:`~hertzsweep.output.import_options.ImportOptions`).
+(:class:`~hertzsweep.io.import_options.ImportOptions`).
 
 The conversions (the reference's "Measurement formats" page gives them with their
 formulas):

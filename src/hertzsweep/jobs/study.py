@@ -40,7 +40,7 @@ from ..drivers.study import (
     whole_cases,
 )
 from ..errors import HertzsweepError
-from .dataset import (
+from ..output.dataset import (
     INDEX,
     atomic_path,
     attributes,
@@ -51,8 +51,8 @@ from .dataset import (
     to_json,
     write_atomic,
 )
-from .frame import Frame, load_xarray
-from .paths import parts_folder
+from ..output.frame import Frame, load_xarray
+from ..output.paths import parts_folder
 
 xr = load_xarray()  # xarray with its dask probe kept quiet
 
@@ -98,7 +98,7 @@ def read_part(path: Path, expected_hash: str | None = None) -> xr.Dataset | None
 
 def read_case_part(folder: Path, case: Case) -> xr.Dataset | None:
     """The part of a case (:func:`read_part`); a sub-case's only with its group's sums
-    (:func:`hertzsweep.output.realisations.is_group_part`)."""
+    (:func:`hertzsweep.jobs.realisations.is_group_part`)."""
     ds = read_part(part_path(folder, case), case.hash)
     if ds is None or case.whole is None:
         return ds
@@ -276,7 +276,7 @@ def case_part(
     folder: Path, whole: Case, cases: Sequence[Case], history: str | None = None
 ) -> xr.Dataset | None:
     """The dataset of a case: its part, or, when it ran as sub-cases, the merge of
-    theirs (:func:`hertzsweep.output.realisations.merged_part`: bit for bit the unsplit
+    theirs (:func:`hertzsweep.jobs.realisations.merged_part`: bit for bit the unsplit
     case's); None when it, or one of its sub-cases, has no part."""
     groups = [case for case in cases if case.whole is whole]
     if not groups:

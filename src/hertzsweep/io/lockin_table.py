@@ -3,7 +3,7 @@
 :func:`read_lockin_table` reads a lock-in amplifier's readings, one per row, into
 :class:`~hertzsweep.drivers.fit.SweepMeasurements` (the peak harmonics A_k of N/F_s and
 their phase lags phi_k in the SPEC's convention), with the conversions of
-:class:`~hertzsweep.output.import_options.ImportOptions`:
+:class:`~hertzsweep.io.import_options.ImportOptions`:
 
 - **Files.** CSV: a header line, then one reading per line; blank lines and lines whose
   first cell starts with ``#`` are skipped; the separator is the one of ``,``, ``;`` and a
@@ -11,7 +11,7 @@ their phase lags phi_k in the SPEC's convention), with the conversions of
   ``,``). JSON (the text starts with ``[`` or ``{``): a list of objects, one per reading
   (``[{"freq": 230.0, "X": 1e-3, "Y": -2e-4}, ...]``), or an object of columns
   (``{"freq": [...], "X": [...], "Y": [...]}``); numbers, or strings that hold one. UTF-8
-  (a BOM allowed) and at most :data:`~hertzsweep.output.measured.MAX_MEASUREMENT_BYTES`.
+  (a BOM allowed) and at most :data:`~hertzsweep.io.measured.MAX_MEASUREMENT_BYTES`.
 - **Columns.** ``options.columns`` (or its ``preset``) maps the quantities ``frequency``
   [Hz], ``x`` and ``y`` (or ``r`` and ``phase``), and optionally ``harmonic``,
   ``direction`` and ``sigma`` to the file's column names (a name matches exactly, or else
@@ -35,7 +35,7 @@ one line naming the file, the line (0 for the file or an option; JSON rows are n
 
 :func:`write_measurement_csv` writes a ``sweep``, ``measured`` or ``fit`` dataset as
 hertzsweep's own measurement CSV (``direction,sigma,frequency,amplitude,phase,harmonic``,
-that :func:`~hertzsweep.output.measured.read_measurements` reads back exactly), and
+that :func:`~hertzsweep.io.measured.read_measurements` reads back exactly), and
 :func:`write_lockin_csv` as a lock-in's table in volts RMS
 (``direction,sigma,harmonic,frequency,x,y``, that :func:`read_lockin_table` reads back to
 round-off). Both write every number with ``repr`` (the shortest text that reads back as
@@ -60,8 +60,8 @@ from .. import __version__
 from ..core.config import read_text
 from ..drivers.fit import SweepMeasurements
 from ..errors import ConfigError, HertzsweepError, MeasurementError
+from ..output.paths import atomic_path
 from .measured import DIRECTIONS, MAX_MEASUREMENT_BYTES, csv_rows
-from .paths import atomic_path
 
 SEPARATORS = (",", ";", "\t")  # CSV separators a lock-in's table may use (LabOne: ";")
 PAIRS = (("x", "y"), ("r", "phase"))  # the two ways a lock-in gives R e^{i theta}
@@ -278,9 +278,9 @@ def read_lockin_table(path: str | os.PathLike, options: Any) -> SweepMeasurement
     path : path
         A CSV or JSON file.
     options : ImportOptions
-        The column map and conversions (:class:`~hertzsweep.output.import_options.ImportOptions`;
+        The column map and conversions (:class:`~hertzsweep.io.import_options.ImportOptions`;
         its preset is applied and its values checked here). Not imported here:
-        :mod:`~hertzsweep.output.formats` imports this module, and modules import one way.
+        :mod:`~hertzsweep.io.formats` imports this module, and modules import one way.
 
     Returns
     -------
@@ -554,7 +554,7 @@ def _write_rows(path: str | os.PathLike, comment: str, header, rows: Iterator) -
 
 def write_measurement_csv(ds: Any, path: str | os.PathLike) -> WriteReport:
     """Write a ``sweep``, ``measured`` or ``fit`` dataset as hertzsweep's own measurement
-    CSV (module notes), which :func:`~hertzsweep.output.measured.read_measurements` reads
+    CSV (module notes), which :func:`~hertzsweep.io.measured.read_measurements` reads
     back with the same values.
 
     Columns ``direction,sigma,frequency,amplitude,phase,harmonic`` (``frequency`` in Hz; a

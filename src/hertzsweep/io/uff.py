@@ -95,8 +95,8 @@ from ..core.kinds import EXPORT_KINDS, KINDS
 from ..core.lockin import order_label
 from ..drivers.fit import SweepMeasurements
 from ..errors import HertzsweepError, MeasurementError
+from ..output.paths import atomic_path, sync_path
 from .import_options import ImportOptions
-from .paths import atomic_path, sync_path
 
 if TYPE_CHECKING:  # xarray is imported by whoever made the dataset
     import xarray as xr
