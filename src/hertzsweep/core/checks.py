@@ -17,7 +17,7 @@ raises a :class:`~hertzsweep.errors.ConfigError` naming the file and the key:
 - its result arrays are within :data:`MEMORY_BUDGET`;
 - the time step is within the stability limit (:func:`hertzsweep.core.model.stability_limit`).
 
-A random scene (``excitation.kind = "random"``, :func:`preflight_random`) has no grid nor
+A random scene (``excitation.kind = "random"``, its plan in :data:`PLANS`) has no grid nor
 lock-in: its band lies below the step's Nyquist frequency and holds a line of the record,
 its time step is within the stability limit at the largest force the linear response
 suggests, and its steps and memory (the forcing of every realisation included) are within
@@ -110,7 +110,7 @@ RIG_LABELS = {  # derived constant -> its name in errors
 class Figures:
     """What a run of the scene takes, as :func:`preflight` found it.
 
-    A random scene (:func:`preflight_random`) is one "frequency" (``points = 1``) whose
+    A random scene (its plan in :data:`PLANS`) is one "frequency" (``points = 1``) whose
     ``trajectories`` are levels x realisations, each integrating one record of
     ``periods_per_dwell = transient_periods + duration_periods`` periods.
 
@@ -700,21 +700,30 @@ def check_random_memory(scene: Scene) -> int:
     return memory
 
 
-def preflight_random(scene: Scene) -> Figures:
-    """Every check a random run makes on its scene, before any work: the rig's
-    constants, ``steps_per_period`` at most :data:`MAX_STEPS_PER_PERIOD`, the band
-    (:func:`check_band`), the stability limit (:func:`check_random_stability`), the
-    steps (:func:`check_random_steps`) and the memory (:func:`check_random_memory`).
-    The sweep's grid and the lock-in's harmonics are not used and not checked.
+# --------------------------------------------------------------------------- preflight
+def _sine_plan(scene: Scene) -> Figures:
+    """A stepped sine's part of the plan: the grid (:func:`check_grid`), the steps per
+    period, the stability limit over the grid, the lock-in's harmonics and measuring
+    periods, the steps and memory of every dwell of every direction and sigma."""
+    grid = check_grid(scene)
+    check_steps_per_period(scene)
+    limit = check_stability_limit(scene)
+    check_harmonics(scene)
+    check_measure_periods(scene)
+    steps = check_steps(scene, grid.size)
+    memory = check_memory(scene, grid.size)
+    trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
+    periods = periods_per_dwell(scene.sweep, check_periods(scene))
+    return Figures.of(scene, grid.size, trajectories, periods, steps, memory, limit)
 
-    Returns
-    -------
-    Figures
-        ``points = 1``; ``trajectories``: levels x realisations; ``periods_per_dwell``:
-        the record (transient + duration); the steps and memory against their budgets,
-        the stability limit and margin.
-    """
-    check_rig(scene.rig, rig_source(scene))
+
+def _random_plan(scene: Scene) -> Figures:
+    """A random run's part of the plan: one "frequency" (``points = 1``) whose
+    trajectories are levels x realisations, each a record of transient + duration
+    periods; the steps per period, the band (:func:`check_band`), the stability limit at
+    the largest force the linear response suggests (:func:`check_random_stability`), the
+    steps and the memory (the forcing of every realisation included). The sweep's grid
+    and the lock-in are not used and not checked."""
     check_steps_per_period(scene)
     check_band(scene)
     limit = check_random_stability(scene)
@@ -724,9 +733,14 @@ def preflight_random(scene: Scene) -> Figures:
     return Figures.of(scene, 1, trajectories, record_periods(scene), steps, memory, limit)
 
 
-# --------------------------------------------------------------------------- preflight
+PLANS = {"sine": _sine_plan, "random": _random_plan}
+"""Each ``excitation.kind``'s part of the preflight plan: its grid, trajectories, steps
+and bytes (:class:`Figures`), checked against the budgets."""
+
+
 def preflight(scene: Scene) -> Figures:
-    """Every check a run of the scene makes, before any work (the module docstring).
+    """Every check a run of the scene makes, before any work (the module docstring): the
+    rig's constants for every scene, then the plan of its excitation (:data:`PLANS`).
 
     Returns
     -------
@@ -739,22 +753,9 @@ def preflight(scene: Scene) -> Figures:
     ConfigError
         The first check that fails, naming the file (the rig's file for the rig's
         constants) and the key.
-
-    A random scene has its own checks (:func:`preflight_random`).
     """
-    if scene.is_random:
-        return preflight_random(scene)
     check_rig(scene.rig, rig_source(scene))
-    grid = check_grid(scene)
-    check_steps_per_period(scene)
-    limit = check_stability_limit(scene)
-    check_harmonics(scene)
-    check_measure_periods(scene)
-    steps = check_steps(scene, grid.size)
-    memory = check_memory(scene, grid.size)
-    trajectories = len(scene.sweep.directions) * len(scene.excitation.sigma)
-    periods = periods_per_dwell(scene.sweep, check_periods(scene))
-    return Figures.of(scene, grid.size, trajectories, periods, steps, memory, limit)
+    return PLANS[scene.excitation.kind](scene)
 
 
 def load_checked_scene(
@@ -916,7 +917,6 @@ __all__ = [
     "check_random_memory",
     "check_random_stability",
     "check_random_steps",
-    "preflight_random",
     "random_bytes",
     "random_force_bound",
     "random_stability_limit",
