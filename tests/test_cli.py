@@ -246,3 +246,28 @@ def test_context_keeps_the_error_and_its_exit_status(tmp_path, capsys):
     code, _, err = run_cli(["plot", source, "-o", tmp_path / "f.png"], capsys)
     assert code == 2 and err.count("\n") == 1
     assert f"error: {source}: hertzsweep_kind: unknown kind 'movie'" in err
+
+
+def test_bare_hertzsweep_prints_the_usage_and_the_commands(capsys):
+    # as git does: the usage and the command list on their own lines, no "error:" mash
+    code, out, err = run_cli([], capsys)
+    assert code == 2 and out == ""
+    assert err.startswith("Usage: hertzsweep [OPTIONS] COMMAND [ARGS]...\n")
+    assert "error" not in err
+    assert "\n  sweep     Stepped-sine sweeps" in err and err.count("\n") > 20
+
+
+@pytest.mark.parametrize(
+    ("typed", "hint"),
+    [
+        ("swep", "; did you mean sweep?"),
+        ("brach", "; did you mean branch, trace or bench?"),
+        ("xyzzy", ""),
+    ],
+)
+def test_an_unknown_command_suggests_the_nearest(typed, hint, capsys):
+    code, out, err = run_cli([typed], capsys)
+    assert code == 2 and out == ""
+    assert err == (
+        f"hertzsweep: error: no command {typed!r}{hint} (hertzsweep --help lists them)\n"
+    )

@@ -58,6 +58,10 @@ def main(argv: Sequence[str] | None = None) -> None:
 def _run(argv: Sequence[str] | None) -> None:
     """Run the group on ``argv`` and map every exception to its message and exit status."""
     signals.install()
+    if not (sys.argv[1:] if argv is None else argv):  # bare: the usage and the commands
+        with click.Context(cli, info_name="hertzsweep") as ctx:
+            click.echo(cli.get_help(ctx), err=True)
+        sys.exit(EXIT_USAGE)
     try:
         cli.main(args=list(argv) if argv is not None else None, standalone_mode=False)
     except click.exceptions.Exit as exc:

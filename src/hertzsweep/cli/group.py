@@ -10,6 +10,7 @@ never loads matplotlib or dask.
 
 from __future__ import annotations
 
+import difflib
 import importlib
 
 import click
@@ -50,6 +51,17 @@ class LazyGroup(click.Group):
         if name not in self.commands and name in COMMANDS:
             importlib.import_module(f"{__package__}.{COMMANDS[name][0]}")  # registers it
         return self.commands.get(name)
+
+    def resolve_command(self, ctx: click.Context, args: list[str]) -> tuple:
+        """The command named by ``args[0]``; an unknown name is refused with the nearest
+        commands (``hertzsweep swep``: did you mean sweep?)."""
+        name = args[0]
+        if name not in COMMANDS and not name.startswith("-"):
+            near = difflib.get_close_matches(name, list(COMMANDS), n=3, cutoff=0.6)
+            options = ", ".join(near[:-1]) + " or " + near[-1] if len(near) > 1 else "".join(near)
+            hint = f"; did you mean {options}?" if near else ""
+            raise click.UsageError(f"no command {name!r}{hint} (hertzsweep --help lists them)")
+        return super().resolve_command(ctx, args)
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         """The command list of ``--help`` from :data:`COMMANDS`, importing nothing."""
